@@ -1,0 +1,1 @@
+"""Bundled data: robot capsules, recordings (see README.md in this folder)."""

@@ -1,0 +1,5 @@
+import sys
+
+from cobotsafety.cli import main
+
+sys.exit(main())

@@ -1,0 +1,1 @@
+"""Benchmarks behind ``cobotsafety bench``: one module per measured pipeline."""

@@ -1,0 +1,20 @@
+"""The package's exceptions: one base class, subclasses that say what went wrong."""
+
+
+class CobotSafetyError(Exception):
+    """Base class of every error raised by cobotsafety."""
+
+
+class InfeasibleConstraintsError(CobotSafetyError, ValueError):
+    """No velocity satisfies every half-space ``normals @ v >= bounds``."""
+
+
+class RecordingError(CobotSafetyError, ValueError):
+    """A recording (replay file, ROS bag, trial log) is corrupt; the message names file and record."""
+
+
+class UnknownRobotError(CobotSafetyError, KeyError):
+    """A robot name that is not supported; the message lists the known names."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""

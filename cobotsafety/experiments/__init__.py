@@ -1,0 +1,1 @@
+"""Headless experiments behind ``cobotsafety experiment``: one module per experiment."""

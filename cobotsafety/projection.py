@@ -1,0 +1,155 @@
+"""The sliding projection: the closest velocity to the desired one that satisfies every half-space.
+
+This is paper 1's sliding rule (eq. 1) generalised as its erratum 3 says: with one active
+constraint it removes the command's component against the constraint's normal; with several it
+is the minimum-norm change of the command that satisfies all of them (a projection onto a convex
+polyhedron), which in 2D agrees with the paper's rule of section III.A.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from cobotsafety.errors import InfeasibleConstraintsError
+
+logger = logging.getLogger(__name__)
+
+#: Constraint violations below this [same unit as ``bounds``] count as satisfied.
+FEASIBILITY_TOLERANCE = 1e-9
+
+
+def _as_inputs(v_desired, normals, bounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    v = np.asarray(v_desired, dtype=float)
+    if v.ndim != 1:
+        raise ValueError(f"v_desired must have shape (n,), got {v.shape}")
+    n = v.shape[0]
+    N = np.asarray(normals, dtype=float)
+    if N.size == 0:
+        N = N.reshape(0, n)
+    if N.ndim != 2 or N.shape[1] != n:
+        raise ValueError(f"normals must have shape (m, {n}) to match v_desired, got {N.shape}")
+    m = N.shape[0]
+    if bounds is None:
+        b = np.zeros(m)
+    else:
+        b = np.asarray(bounds, dtype=float)
+        if b.size == 0 and m == 0:
+            b = b.reshape(0)
+        if b.shape != (m,):
+            raise ValueError(f"bounds must have shape ({m},) to match normals, got {b.shape}")
+    if not np.all(np.isfinite(N)):
+        raise ValueError("normals contains NaN or inf")
+    if not np.all(np.isfinite(b)):
+        raise ValueError("bounds contains NaN or inf")
+    return v, N, b
+
+
+def slide(v_desired, normals, bounds=None) -> np.ndarray:
+    """Return the velocity closest to ``v_desired`` with ``normals @ v >= bounds``.
+
+    Solves ``min ||v - v_desired||  s.t.  normals @ v >= bounds`` exactly (a least-distance
+    problem, solved through its non-negative least-squares dual, Lawson & Hanson ch. 23;
+    scipy's ``nnls`` is not used: version 1.17 returns wrong answers on some of these problems).
+
+    Args:
+        v_desired: Shape (n,). The desired velocity (any unit; the bounds share it).
+        normals: Shape (m, n). One half-space normal per row, pointing into the allowed side.
+            They need not be unit vectors. m = 0 returns a copy of ``v_desired``.
+        bounds: Shape (m,), or None for zeros. ``bounds[i] <= 0`` always admits v = 0.
+
+    Returns:
+        Shape (n,), a new array. When ``v_desired`` already satisfies every half-space it is
+        returned unchanged (as a copy).
+
+    Raises:
+        ValueError: a wrong shape (the message names the argument), or NaN/inf in
+            ``normals`` or ``bounds``.
+        InfeasibleConstraintsError: no v satisfies all half-spaces (e.g. ``n @ v >= 1`` and
+            ``-n @ v >= 1``). Nothing is returned in that case: the caller decides (the filter
+            stops the robot).
+
+    A ``v_desired`` holding NaN or inf is treated as "no command": a warning is logged and the
+    result is the projection of the zero vector (the zero vector itself when all bounds <= 0).
+    """
+    v, N, b = _as_inputs(v_desired, normals, bounds)
+    if not np.all(np.isfinite(v)):
+        logger.warning("v_desired contains NaN or inf (%s); commanding zero instead", v)
+        v = np.zeros_like(v)
+    if N.shape[0] == 0:
+        return v.copy()
+    # h: how much each constraint is violated at v_desired (positive = violated).
+    h = b - N @ v
+    if np.all(h <= FEASIBILITY_TOLERANCE):
+        return v.copy()
+    return v + _least_distance(N, h)
+
+
+def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Return argmin ||x|| subject to G x >= h.
+
+    Goldfarb & Idnani's dual active-set method (1983) for an identity Hessian: start from the
+    unconstrained optimum x = 0, add the most violated constraint, take the step that makes it
+    tight while keeping the others' multipliers non-negative, drop a constraint whose multiplier
+    reaches zero. The active normals stay linearly independent, so each solve is well posed.
+    """
+    m, n = G.shape
+    scale = np.linalg.norm(G, axis=1)
+    bad = (scale == 0.0) & (h > FEASIBILITY_TOLERANCE)
+    if np.any(bad):
+        raise InfeasibleConstraintsError(
+            f"constraint(s) {np.flatnonzero(bad).tolist()} have a zero normal and a positive "
+            "bound: 0 >= bound can never hold"
+        )
+    safe_scale = np.where(scale == 0.0, 1.0, scale)
+    G = G / safe_scale[:, None]
+    h = np.where(scale == 0.0, -np.inf, h / safe_scale)
+    tol = FEASIBILITY_TOLERANCE * max(1.0, float(np.max(np.abs(h[np.isfinite(h)]))))
+    x = np.zeros(n)
+    active: list[int] = []
+    multipliers = np.zeros(0)
+    for _ in range(10 * (m + n) + 10):
+        slack = G @ x - h
+        p = int(np.argmin(slack))
+        if slack[p] >= -tol:
+            return x
+        lambda_p = 0.0
+        while True:
+            n_p = G[p]
+            if active:
+                A = G[active]
+                r = np.linalg.solve(A @ A.T, A @ n_p)
+                z = n_p - A.T @ r
+            else:
+                r = np.zeros(0)
+                z = n_p
+            zz = float(z @ z)
+            t_full = -float(n_p @ x - h[p]) / zz if zz > 1e-24 else np.inf
+            positive = r > 1e-15
+            if np.any(positive):
+                ratios = np.where(positive, multipliers / np.where(positive, r, 1.0), np.inf)
+                drop = int(np.argmin(ratios))
+                t_partial = float(ratios[drop])
+            else:
+                t_partial = np.inf
+            t = min(t_full, t_partial)
+            if not np.isfinite(t):
+                raise InfeasibleConstraintsError(_infeasible_message(G, h))
+            x = x + t * z
+            multipliers = multipliers - t * r
+            lambda_p += t
+            if t_full <= t_partial:
+                active.append(p)
+                multipliers = np.append(multipliers, lambda_p)
+                break
+            del active[drop]
+            multipliers = np.delete(multipliers, drop)
+    raise InfeasibleConstraintsError(_infeasible_message(G, h))
+
+
+def _infeasible_message(G: np.ndarray, h: np.ndarray) -> str:
+    return (
+        f"no velocity satisfies the {G.shape[0]} half-spaces at once "
+        f"(largest required advance {np.max(h):.3g}); the bounds contradict each other"
+    )
