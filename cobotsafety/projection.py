@@ -105,7 +105,8 @@ def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     safe_scale = np.where(scale == 0.0, 1.0, scale)
     G = G / safe_scale[:, None]
     h = np.where(scale == 0.0, -np.inf, h / safe_scale)
-    tol = FEASIBILITY_TOLERANCE * max(1.0, float(np.max(np.abs(h[np.isfinite(h)]))))
+    # Relative to the largest violation, so a far-away inactive row cannot loosen it.
+    tol = FEASIBILITY_TOLERANCE * max(1.0, float(np.max(h)))
     x = np.zeros(n)
     active: list[int] = []
     multipliers = np.zeros(0)
