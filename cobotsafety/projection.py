@@ -107,45 +107,51 @@ def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     h = np.where(scale == 0.0, -np.inf, h / safe_scale)
     # Relative to the largest violation, so a far-away inactive row cannot loosen it.
     tol = FEASIBILITY_TOLERANCE * max(1.0, float(np.max(h)))
-    x = np.zeros(n)
+    # Work in the dual: x = G^T lam, slack = K lam - h with the Gram matrix K = G G^T.
+    K = G @ G.T
+    slack = -h
+    lam = np.zeros(m)
     active: list[int] = []
-    multipliers = np.zeros(0)
     for _ in range(10 * (m + n) + 10):
-        slack = G @ x - h
-        p = int(np.argmin(slack))
+        p = int(slack.argmin())
         if slack[p] >= -tol:
-            return x
-        lambda_p = 0.0
-        while True:
-            n_p = G[p]
             if active:
-                A = G[active]
-                r = np.linalg.solve(A @ A.T, A @ n_p)
-                z = n_p - A.T @ r
-            else:
-                r = np.zeros(0)
-                z = n_p
-            zz = float(z @ z)
-            t_full = -float(n_p @ x - h[p]) / zz if zz > 1e-24 else np.inf
-            positive = r > 1e-15
-            if np.any(positive):
-                ratios = np.where(positive, multipliers / np.where(positive, r, 1.0), np.inf)
-                drop = int(np.argmin(ratios))
+                # Polish: solve the active set's equations directly (removes the rounding
+                # the incremental slack updates accumulated).
+                lam_A = np.linalg.solve(K[np.ix_(active, active)], h[active])
+                if np.all(lam_A >= 0.0):
+                    return G[active].T @ lam_A
+            return G.T @ lam
+        while True:
+            K_p = K[p]
+            if active:
+                K_AA = K[np.ix_(active, active)]
+                r = np.linalg.solve(K_AA, K_p[active]) if len(active) > 1 else K_p[active] / K_AA[0, 0]
+                # Change of every slack per unit step: K (e_p - sum_A r_j e_j).
+                direction = K_p - r @ K[active]
+                zz = float(direction[p])
+                lam_A = lam[active]
+                positive = r > 1e-15
+                ratios = np.where(positive, lam_A / np.where(positive, r, 1.0), np.inf)
+                drop = int(ratios.argmin())
                 t_partial = float(ratios[drop])
             else:
+                direction = K_p
+                zz = float(K_p[p])
                 t_partial = np.inf
+            t_full = -float(slack[p]) / zz if zz > 1e-12 else np.inf
             t = min(t_full, t_partial)
-            if not np.isfinite(t):
+            if t == np.inf:
                 raise InfeasibleConstraintsError(_infeasible_message(G, h))
-            x = x + t * z
-            multipliers = multipliers - t * r
-            lambda_p += t
+            slack = slack + t * direction
+            if active:
+                lam[active] = lam_A - t * r
+            lam[p] += t
             if t_full <= t_partial:
                 active.append(p)
-                multipliers = np.append(multipliers, lambda_p)
                 break
+            lam[active[drop]] = 0.0
             del active[drop]
-            multipliers = np.delete(multipliers, drop)
     raise InfeasibleConstraintsError(_infeasible_message(G, h))
 
 
