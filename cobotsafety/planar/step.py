@@ -1,0 +1,148 @@
+"""One planar control step: filter the command, map it to joint rates, integrate, check.
+
+``step(state, v_desired, dt_s, scene, method)`` is the whole pipeline of Fig. 3:
+
+1. clamp the command to ``max_speed_m_s`` (NaN/inf -> zero with a warning);
+2. apply the method: ``anticipative`` (project onto every limitation's half-space),
+   ``stop`` (zero when the command would reach a limitation within the step), ``reactive``
+   (spring-damper repulsion, ``cobotsafety.planar.baselines``) or ``off``;
+3. joint rates ``theta_dot = K v`` (K = J^-1, damped near singularities) and Euler
+   integration in joint space (exact for joint limits);
+4. safety net: the half-spaces are exact for joint limits but only first-order for curved
+   Cartesian limits, so the new state is checked against every limitation and, if one was
+   crossed (or an already violated one got deeper), the step is scaled down by bisection;
+   zero motion is always admissible. ``StepInfo.net_scale < 1`` says it acted.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+from cobotsafety.planar.arm import Kinematics, PlanarArm
+from cobotsafety.planar.baselines import ReactiveParams, reactive_command
+from cobotsafety.planar.limitations import Damping, Measure, PlanarLimitation, rows_from_measures
+from cobotsafety.planar.project2d import project_2d
+
+logger = logging.getLogger(__name__)
+
+#: A limitation counts as crossed when its distance goes below this [m or rad].
+CROSSING_TOLERANCE = 1e-12
+
+
+@dataclass(frozen=True)
+class PlanarState:
+    """Joint angles [rad] and the joint rates of the last step [rad/s]."""
+
+    theta_1: float
+    theta_2: float
+    theta_dot_1: float = 0.0
+    theta_dot_2: float = 0.0
+
+
+@dataclass
+class PlanarScene:
+    """The arm, its limitations and the filter's settings."""
+
+    arm: PlanarArm
+    limitations: list[PlanarLimitation]
+    damping: Damping = field(default_factory=Damping)
+    max_speed_m_s: float = 0.5
+    reactive: ReactiveParams = field(default_factory=ReactiveParams)
+
+
+@dataclass(frozen=True)
+class StepInfo:
+    vx_desired: float
+    vy_desired: float
+    vx_commanded: float
+    vy_commanded: float
+    binding: tuple[str, ...]
+    stopped: bool
+    net_scale: float
+
+
+def _clamp(vx: float, vy: float, max_speed: float) -> tuple[float, float]:
+    if not (math.isfinite(vx) and math.isfinite(vy)):
+        logger.warning("desired velocity (%s, %s) is not finite; commanding zero", vx, vy)
+        return 0.0, 0.0
+    speed = math.hypot(vx, vy)
+    if speed > max_speed:
+        return vx * max_speed / speed, vy * max_speed / speed
+    return vx, vy
+
+
+def measures(scene: PlanarScene, kin: Kinematics) -> list[Measure]:
+    """Every limitation's signed distances and gradients at ``kin``."""
+    return [m for limitation in scene.limitations for m in limitation.measures(kin)]
+
+
+def _distances(scene: PlanarScene, kin: Kinematics) -> list[float]:
+    return [m[0] for m in measures(scene, kin)]
+
+
+def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene: PlanarScene,
+         method: str = "anticipative") -> tuple[PlanarState, StepInfo]:
+    """Advance the arm by one control period ``dt_s`` [s] under ``method``."""
+    if len(v_desired) != 2:
+        raise ValueError(f"v_desired must have 2 components, got {len(v_desired)}")
+    if not dt_s > 0.0:
+        raise ValueError(f"dt_s must be positive, got {dt_s}")
+    arm = scene.arm
+    kin = Kinematics(arm, state.theta_1, state.theta_2)
+    vx_d, vy_d = _clamp(float(v_desired[0]), float(v_desired[1]), scene.max_speed_m_s)
+    binding: tuple[str, ...] = ()
+    stopped = False
+    now = measures(scene, kin)
+    rows: list = []
+    if method == "anticipative":
+        rows_from_measures(now, vx_d, vy_d, dt_s, scene.damping, scene.max_speed_m_s, rows)
+        vx, vy, ok = project_2d(vx_d, vy_d, rows)
+        binding = tuple(r[3] for r in rows if r[0] * vx + r[1] * vy <= r[2] + 1e-9)
+        stopped = not ok
+    elif method == "stop":
+        rows_from_measures(now, vx_d, vy_d, dt_s, Damping(), scene.max_speed_m_s, rows)
+        blocked = tuple(r[3] for r in rows if r[0] * vx_d + r[1] * vy_d < r[2] - 1e-12)
+        vx, vy = (0.0, 0.0) if blocked else (vx_d, vy_d)
+        binding, stopped = blocked, bool(blocked)
+    elif method == "reactive":
+        vx, vy, binding = reactive_command(scene, kin, vx_d, vy_d, state)
+    elif method == "off":
+        vx, vy = vx_d, vy_d
+    else:
+        raise ValueError(f"method must be one of anticipative, stop, reactive, off; got {method!r}")
+
+    rate_1 = kin.k11 * vx + kin.k12 * vy
+    rate_2 = kin.k21 * vx + kin.k22 * vy
+    if method == "off":
+        new = _integrate(state, rate_1, rate_2, dt_s, 1.0, arm)
+        return new, StepInfo(vx_d, vy_d, vx, vy, binding, stopped, 1.0)
+    before = [m[0] for m in now]
+    scale = 1.0
+    new = _integrate(state, rate_1, rate_2, dt_s, scale, arm)
+    if not _admissible(before, _distances(scene, Kinematics(arm, new.theta_1, new.theta_2))):
+        low, high = 0.0, 1.0
+        for _ in range(30):
+            mid = 0.5 * (low + high)
+            trial = _integrate(state, rate_1, rate_2, dt_s, mid, arm)
+            if _admissible(before, _distances(scene, Kinematics(arm, trial.theta_1, trial.theta_2))):
+                low = mid
+            else:
+                high = mid
+        scale = low
+        new = _integrate(state, rate_1, rate_2, dt_s, scale, arm)
+    return new, StepInfo(vx_d, vy_d, vx * scale, vy * scale, binding, stopped, scale)
+
+
+def _integrate(state: PlanarState, rate_1: float, rate_2: float, dt_s: float, scale: float,
+               arm: PlanarArm) -> PlanarState:
+    r1, r2 = rate_1 * scale, rate_2 * scale
+    return PlanarState(state.theta_1 + r1 * dt_s, state.theta_2 + r2 * dt_s, r1, r2)
+
+
+def _admissible(before: list[float], after: list[float]) -> bool:
+    for d0, d1 in zip(before, after):
+        if d1 < min(d0, 0.0) - CROSSING_TOLERANCE:
+            return False
+    return True
