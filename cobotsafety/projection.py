@@ -105,8 +105,18 @@ def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     safe_scale = np.where(scale == 0.0, 1.0, scale)
     G = G / safe_scale[:, None]
     h = np.where(scale == 0.0, -np.inf, h / safe_scale)
-    # Relative to the largest violation, so a far-away inactive row cannot loosen it.
-    tol = FEASIBILITY_TOLERANCE * max(1.0, float(np.max(h)))
+    # Tolerances relative to the largest violation, so a far-away inactive row cannot loosen
+    # them. The fine pass is exact to rounding; on degenerate (many rows through one point)
+    # problems rounding can make it cycle, and the coarse pass (1e-9) settles those.
+    scale_h = max(1.0, float(np.max(h)))
+    try:
+        return _dual_active_set(G, h, 1e-12 * scale_h)
+    except InfeasibleConstraintsError:
+        return _dual_active_set(G, h, FEASIBILITY_TOLERANCE * scale_h)
+
+
+def _dual_active_set(G: np.ndarray, h: np.ndarray, tol: float) -> np.ndarray:
+    m, n = G.shape
     # Work in the dual: x = G^T lam, slack = K lam - h with the Gram matrix K = G G^T.
     K = G @ G.T
     slack = -h
