@@ -1,0 +1,271 @@
+"""The demo's control loop: a thread stepping a ``Teleoperated`` robot at a fixed rate.
+
+Inputs (gizmo target, jog buttons, mode) arrive from browser callbacks at any rate; they only
+set fields under a lock. Each period the loop turns them into one desired velocity, guards it
+(NaN -> zero, speed cap, acceleration limit so nothing jumps), calls ``robot.step`` with the
+nominal period and publishes a snapshot. Rendering reads snapshots at its own rate.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from cobotsafety.app.gizmo import GizmoSettings, offset_to_velocity
+from cobotsafety.errors import CobotSafetyError
+from cobotsafety.teleop import METHODS, StepReport, Teleoperated
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    rate_hz: float = 500.0
+    """Control rate [Hz]; the robot is integrated with ``dt_s = 1 / rate_hz``."""
+    max_speed_m_s: float = 0.25
+    """Cap on the desired end-effector speed sent to the robot [m/s]."""
+    max_accel_m_s2: float = 2.0
+    """Cap on the change of the desired velocity [m/s^2] (rate limit: no jumps)."""
+    jog_hold_s: float = 0.3
+    """A jog press commands its velocity for this long, then zero [s]."""
+    workspace_radius_m: float = 2.0
+    """Gizmo targets farther than this from the base are pulled back onto this sphere [m]."""
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+def guard_command(v_target_m_s: np.ndarray, v_previous_m_s: np.ndarray, dt_s: float,
+                  max_speed_m_s: float, max_accel_m_s2: float) -> np.ndarray:
+    """The velocity to send [m/s], shape of ``v_previous_m_s``; finite by construction.
+
+    Non-finite targets become zero; the speed is capped at ``max_speed_m_s``; the change from
+    ``v_previous_m_s`` is capped at ``max_accel_m_s2 * dt_s`` (norm).
+    """
+    v_previous = np.asarray(v_previous_m_s, dtype=float)
+    v_target = np.asarray(v_target_m_s, dtype=float)
+    if v_target.shape != v_previous.shape or not np.all(np.isfinite(v_target)):
+        v_target = np.zeros_like(v_previous)
+    with np.errstate(over="ignore"):
+        speed = float(np.linalg.norm(v_target))
+    if not np.isfinite(speed):  # finite but astronomically large: treat as garbage
+        v_target, speed = np.zeros_like(v_previous), 0.0
+    if speed > max_speed_m_s:
+        v_target = v_target * (max_speed_m_s / speed)
+    change = v_target - v_previous
+    max_change = max_accel_m_s2 * dt_s
+    size = float(np.linalg.norm(change))
+    if size > max_change:
+        change = change * (max_change / size)
+    return v_previous + change
+
+
+class LoopStats:
+    """Periods of the last ``window`` control steps, for the loop-rate readout and the bench."""
+
+    def __init__(self, window: int = 2000):
+        self.periods_s: deque[float] = deque(maxlen=window)
+        self.overruns = 0
+
+    def add(self, period_s: float) -> None:
+        self.periods_s.append(period_s)
+
+    def summary(self) -> dict[str, float]:
+        """``rate_hz`` (1 / mean period), ``p50_ms``, ``p99_ms``, ``max_ms``; zeros when empty."""
+        if not self.periods_s:
+            return {"rate_hz": 0.0, "p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0}
+        periods = np.fromiter(self.periods_s, dtype=float)
+        p50, p99 = np.percentile(periods, [50, 99])
+        return {"rate_hz": float(1.0 / periods.mean()), "p50_ms": float(p50 * 1e3),
+                "p99_ms": float(p99 * 1e3), "max_ms": float(periods.max() * 1e3)}
+
+
+@dataclass(frozen=True)
+class LoopSnapshot:
+    """What the loop did last, for rendering and plots."""
+
+    t_s: float
+    """Simulated time since start or reset [s] (steps x dt)."""
+    steps: int
+    method: str
+    report: StepReport | None
+    p_base_ee_m: np.ndarray
+    """Shape (3,) [m]."""
+    v_sent_m_s: np.ndarray
+    """Shape (dim,), the guarded desired velocity given to ``robot.step`` [m/s]."""
+    dragging: bool
+    stats: dict = field(default_factory=dict)
+
+
+class ControlLoop:
+    """Steps ``robot`` at ``settings.rate_hz`` in a daemon thread; thread-safe inputs."""
+
+    def __init__(self, robot: Teleoperated, settings: LoopSettings = LoopSettings(),
+                 gizmo: GizmoSettings = GizmoSettings()):
+        self.settings = settings
+        self.gizmo = gizmo
+        self.lock = threading.RLock()
+        self.stats = LoopStats()
+        self.before_step: list[Callable[[float], None]] = []
+        """Called with the simulated time [s] under the lock before each step (e.g. replay)."""
+        self._robot = robot
+        self._method = "anticipative"
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._reset_inputs()
+
+    def _reset_inputs(self) -> None:
+        dim = self._robot.dim
+        self._gizmo_target_m: np.ndarray | None = None
+        self._jog_m_s = np.zeros(dim)
+        self._jog_until_s = -1.0
+        self._v_sent = np.zeros(dim)
+        self._t_s = 0.0
+        self._steps = 0
+        self._report: StepReport | None = None
+
+    # ---- inputs (any thread) -------------------------------------------------------------
+    @property
+    def robot(self) -> Teleoperated:
+        return self._robot
+
+    @property
+    def method(self) -> str:
+        return self._method
+
+    @method.setter
+    def method(self, method: str) -> None:
+        if method not in METHODS:
+            raise CobotSafetyError(f"method must be one of {METHODS}, got {method!r}")
+        self._method = method
+
+    def set_gizmo_target(self, p_base_gizmo_m: np.ndarray) -> bool:
+        """Drag in progress: the gizmo is at ``p_base_gizmo_m`` (shape (3,)) [m].
+
+        Returns False (and ignores it) for a malformed or non-finite position; targets beyond
+        ``workspace_radius_m`` are pulled back onto that sphere.
+        """
+        try:
+            target = np.asarray(p_base_gizmo_m, dtype=float).reshape(3)
+        except (TypeError, ValueError):
+            return False
+        if not np.all(np.isfinite(target)):
+            return False
+        radius = float(np.linalg.norm(target))
+        if radius > self.settings.workspace_radius_m:
+            target = target * (self.settings.workspace_radius_m / radius)
+        with self.lock:
+            self._gizmo_target_m = target
+        return True
+
+    def release_gizmo(self) -> None:
+        """Drag ended (or its client left): the gizmo commands zero from now on."""
+        with self.lock:
+            self._gizmo_target_m = None
+
+    def jog(self, v_m_s: np.ndarray) -> None:
+        """Command ``v_m_s`` (shape (dim,)) for ``jog_hold_s`` of simulated time; NaN -> ignored."""
+        v = np.asarray(v_m_s, dtype=float).reshape(-1)
+        if v.shape != (self._robot.dim,) or not np.all(np.isfinite(v)):
+            return
+        with self.lock:
+            self._jog_m_s = v
+            self._jog_until_s = self._t_s + self.settings.jog_hold_s
+
+    def reset(self) -> None:
+        """Home pose, inputs cleared, time back to zero."""
+        with self.lock:
+            self._robot.reset()
+            self._reset_inputs()
+
+    def replace_robot(self, robot: Teleoperated) -> None:
+        """Swap in another robot (robot selector, Fig. 9 scene); inputs are cleared."""
+        with self.lock:
+            self._robot = robot
+            self._reset_inputs()
+
+    def read(self, fn: Callable[[Teleoperated], object]) -> object:
+        """Run ``fn(robot)`` under the lock (for renderers that need more than the snapshot)."""
+        with self.lock:
+            return fn(self._robot)
+
+    # ---- one step ----------------------------------------------------------------------
+    def desired_velocity(self) -> np.ndarray:
+        """The raw user command now (gizmo while dragged, else jog, else zero), shape (dim,)."""
+        dim = self._robot.dim
+        if self._gizmo_target_m is not None:
+            offset = self._gizmo_target_m - np.asarray(self._robot.p_base_ee_m, dtype=float)
+            return offset_to_velocity(offset[:dim], self.gizmo)
+        if self._t_s < self._jog_until_s:
+            return self._jog_m_s
+        return np.zeros(dim)
+
+    def step_once(self) -> StepReport:
+        """One control period with the nominal ``dt_s``."""
+        s = self.settings
+        with self.lock:
+            for hook in self.before_step:
+                hook(self._t_s)
+            v = guard_command(self.desired_velocity(), self._v_sent, s.dt_s, s.max_speed_m_s, s.max_accel_m_s2)
+            report = self._robot.step(v, s.dt_s, self._method)
+            self._v_sent = v
+            self._report = report
+            self._t_s += s.dt_s
+            self._steps += 1
+            return report
+
+    def snapshot(self) -> LoopSnapshot:
+        with self.lock:
+            return LoopSnapshot(self._t_s, self._steps, self._method, self._report,
+                                np.array(self._robot.p_base_ee_m, dtype=float), self._v_sent.copy(),
+                                self._gizmo_target_m is not None, self.stats.summary())
+
+    # ---- thread ------------------------------------------------------------------------
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="cobotsafety-control", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def _run(self) -> None:
+        period = self.settings.dt_s
+        clock = time.perf_counter
+        deadline = clock()
+        last = None
+        while not self._stop.is_set():
+            now = clock()
+            if last is not None:
+                self.stats.add(now - last)
+            last = now
+            try:
+                self.step_once()
+            except Exception:  # noqa: BLE001 - the loop must survive a bad step; robot holds still
+                logger.exception("control step failed; commanding zero")
+                with self.lock:
+                    self._v_sent = np.zeros(self._robot.dim)
+                    self._gizmo_target_m = None
+            deadline += period
+            delay = deadline - clock()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -period:  # fell behind by more than a period: do not burst to catch up
+                self.stats.overruns += 1
+                deadline = clock()

@@ -1,0 +1,162 @@
+"""The control loop: guard (NaN, cap, rate limit), inputs, threads, against the planar robot."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+from cobotsafety.app.control_loop import ControlLoop, LoopSettings, LoopStats, guard_command
+from cobotsafety.app.gizmo import GizmoSettings
+from cobotsafety.errors import CobotSafetyError
+from cobotsafety.planar.teleop import PlanarTeleop
+
+
+def test_guard_hand_worked():
+    # target 1 m/s along x from rest, cap 0.25, accel 2 m/s^2 at dt 2 ms: change <= 0.004 m/s.
+    v = guard_command(np.array([1.0, 0.0]), np.zeros(2), 0.002, 0.25, 2.0)
+    np.testing.assert_allclose(v, [0.004, 0.0])
+    # already at 0.1 along y, target 0.1 along y: no change.
+    np.testing.assert_allclose(guard_command(np.array([0.0, 0.1]), np.array([0.0, 0.1]), 0.002, 0.25, 2.0), [0, 0.1])
+
+
+def test_guard_nan_and_wrong_shape_decelerate_towards_zero():
+    previous = np.array([0.1, 0.0, 0.0])
+    for bad in (np.array([np.nan, 0.0, 0.0]), np.array([1.0, 2.0])):
+        v = guard_command(bad, previous, 0.002, 0.25, 2.0)
+        np.testing.assert_allclose(v, [0.096, 0.0, 0.0])
+
+
+vectors = st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=2, max_size=2)
+
+
+@given(vectors, st.lists(st.floats(-0.25, 0.25), min_size=2, max_size=2))
+def test_guard_invariants(target, previous):
+    previous = np.array(previous) * (0.25 / max(0.25, np.linalg.norm(previous)))
+    v = guard_command(np.array(target), previous, 0.002, 0.25, 2.0)
+    assert np.all(np.isfinite(v))
+    assert np.linalg.norm(v) <= 0.25 + 1e-9
+    assert np.linalg.norm(v - previous) <= 0.004 + 1e-12
+
+
+def test_stats_percentiles():
+    stats = LoopStats(window=100)
+    for period in [0.002] * 98 + [0.010, 0.012]:
+        stats.add(period)
+    s = stats.summary()
+    assert s["p50_ms"] == pytest.approx(2.0)
+    assert s["max_ms"] == pytest.approx(12.0)
+    assert s["rate_hz"] == pytest.approx(1.0 / np.mean([0.002] * 98 + [0.010, 0.012]))
+
+
+def make_loop(**kw):
+    return ControlLoop(PlanarTeleop(), LoopSettings(**kw), GizmoSettings(dead_band_m=0.0, gain_per_s=2.0))
+
+
+def test_gizmo_drag_moves_end_effector_towards_gizmo_and_release_stops():
+    loop = make_loop()
+    start = loop.snapshot().p_base_ee_m
+    target = start + np.array([0.05, 0.0, 0.0])
+    assert loop.set_gizmo_target(target)
+    for _ in range(500):
+        loop.step_once()
+    moved = loop.snapshot().p_base_ee_m
+    assert moved[0] - start[0] > 0.02  # pulled towards +x
+    assert np.linalg.norm(target - moved) < np.linalg.norm(target - start)
+    loop.release_gizmo()
+    for _ in range(200):  # decelerates at <= 2 m/s^2 then holds still
+        loop.step_once()
+    before = loop.snapshot().p_base_ee_m
+    for _ in range(50):
+        loop.step_once()
+    np.testing.assert_array_equal(loop.snapshot().p_base_ee_m, before)
+
+
+def test_garbage_gizmo_updates_are_ignored():
+    loop = make_loop()
+    for bad in ([np.nan, 0, 0], [1, 2], "x", None, [np.inf, 0, 0]):
+        assert not loop.set_gizmo_target(bad)
+    assert not loop.snapshot().dragging
+
+
+def test_flood_of_far_gizmo_updates_cannot_make_the_robot_jump():
+    loop = make_loop()
+    rng = np.random.default_rng(0)
+    settings = loop.settings
+    previous = loop.snapshot().p_base_ee_m
+    for _ in range(300):
+        for _ in range(20):  # 20 updates per control period, all over the place
+            loop.set_gizmo_target(rng.uniform(-1e6, 1e6, 3))
+        report = loop.step_once()
+        now = loop.snapshot().p_base_ee_m
+        assert np.linalg.norm(report.v_desired_m_s) <= settings.max_speed_m_s + 1e-9
+        # the robot's speed stays under the cap (the filter only slows it down)
+        assert np.linalg.norm(now - previous) <= settings.max_speed_m_s * settings.dt_s * 1.01
+        previous = now
+
+
+def test_jog_expires():
+    loop = make_loop(jog_hold_s=0.1)
+    loop.jog(np.array([0.0, -0.05]))
+    for _ in range(30):
+        loop.step_once()
+    assert loop.snapshot().v_sent_m_s[1] < 0.0
+    for _ in range(100):
+        loop.step_once()
+    np.testing.assert_allclose(loop.snapshot().v_sent_m_s, 0.0)
+
+
+def test_bad_method_is_refused():
+    loop = make_loop()
+    with pytest.raises(CobotSafetyError, match="method"):
+        loop.method = "fast"
+    assert loop.method == "anticipative"
+
+
+def test_reset_returns_home():
+    loop = make_loop()
+    home = loop.snapshot().p_base_ee_m
+    loop.jog(np.array([0.1, 0.0]))
+    for _ in range(100):
+        loop.step_once()
+    assert not np.allclose(loop.snapshot().p_base_ee_m, home)
+    loop.reset()
+    np.testing.assert_allclose(loop.snapshot().p_base_ee_m, home)
+    assert loop.snapshot().steps == 0
+
+
+def test_thread_runs_and_survives_a_failing_hook_and_concurrent_inputs():
+    loop = make_loop()
+    calls = {"n": 0}
+
+    def flaky(t_s):
+        calls["n"] += 1
+        if calls["n"] == 5:
+            raise RuntimeError("sensor glitch")
+
+    loop.before_step.append(flaky)
+    loop.start()
+    try:
+        stop = threading.Event()
+
+        def spam():
+            rng = np.random.default_rng(1)
+            while not stop.is_set():
+                loop.set_gizmo_target(rng.normal(size=3))
+                loop.method = "stop"
+                loop.method = "anticipative"
+
+        spammer = threading.Thread(target=spam)
+        spammer.start()
+        deadline = time.monotonic() + 30
+        while loop.snapshot().steps < 200 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        stop.set()
+        spammer.join()
+        assert loop.running
+        assert loop.snapshot().steps >= 200
+        assert np.all(np.isfinite(loop.snapshot().p_base_ee_m))
+    finally:
+        loop.stop()
+    assert not loop.running
