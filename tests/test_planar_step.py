@@ -1,0 +1,110 @@
+"""The planar step: never crosses a limitation; baselines; bad input."""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from cobotsafety.planar.arm import Kinematics
+from cobotsafety.planar.scenarios import demo_scene, fig9_scene
+from cobotsafety.planar.step import PlanarState, measures, step
+from cobotsafety.planar.teleop import PlanarTeleop
+
+
+def run_random_steps(scene, method, n_steps, seed):
+    """Random commands (including large ones) and dt up to 10 ms; return the worst crossing."""
+    rng = np.random.default_rng(seed)
+    t1, t2 = scene.arm.inverse_kinematics(-0.2, 0.03)
+    state = PlanarState(t1, t2)
+    worst = 0.0
+    previous = [m[0] for m in measures(scene, Kinematics(scene.arm, t1, t2))]
+    direction = rng.normal(size=2)
+    for i in range(n_steps):
+        if i % 50 == 0:  # hold a direction for a while, so limitations are reached
+            direction = rng.normal(size=2) * rng.choice([0.05, 0.3, 2.0])
+        dt_s = rng.uniform(1e-4, 0.01)
+        state, _ = step(state, direction, dt_s, scene, method)
+        now = [m[0] for m in measures(scene, Kinematics(scene.arm, state.theta_1, state.theta_2))]
+        for d0, d1 in zip(previous, now):
+            worst = min(worst, d1 - min(d0, 0.0))
+        previous = now
+    return worst
+
+
+@pytest.mark.parametrize("method", ["anticipative", "stop", "reactive"])
+def test_no_limitation_is_ever_crossed(method):
+    # 10^4 steps per method here; `cobotsafety bench planar --invariant 100000` runs 10^5.
+    worst = run_random_steps(demo_scene(), method, 10_000, seed=7)
+    assert worst >= -1e-9
+
+
+def test_anticipative_slides_along_a_limitation_where_stop_halts():
+    scene = fig9_scene("b")
+    for method, expect_moving in (("anticipative", True), ("stop", False)):
+        robot = PlanarTeleop(scene)
+        for _ in range(500):  # push up-left into the triangle's bottom edge for 1 s
+            report = robot.step(np.array([-0.02, 0.2]), 0.002, method)
+        speed = np.linalg.norm(report.v_executed_m_s)
+        if expect_moving:
+            assert speed > 0.015  # the tangential part of the command survives
+            assert "F triangle" in report.binding or "F bar" in report.binding
+        else:
+            assert speed == 0.0 and report.stopped
+
+
+def test_stop_lets_the_robot_move_away_from_the_limitation():
+    robot = PlanarTeleop(fig9_scene("b"))
+    for _ in range(1000):
+        robot.step(np.array([0.0, 0.2]), 0.002, "stop")
+    y_at_limit = robot.p_base_ee_m[1]
+    report = robot.step(np.array([0.0, -0.1]), 0.002, "stop")
+    assert not report.stopped and robot.p_base_ee_m[1] < y_at_limit
+
+
+def test_reactive_pushes_back_inside_its_zone():
+    robot = PlanarTeleop(fig9_scene("b"))
+    for _ in range(3000):
+        report = robot.step(np.array([0.0, 0.2]), 0.002, "reactive")
+    kin = robot.kinematics
+    triangle = robot.scene.limitations[-1]
+    # The spring balances the command before the limit: it stalls inside the repulsion zone.
+    assert 0.0 < triangle.distance(kin) < robot.scene.reactive.zone_width_m
+    assert np.linalg.norm(report.v_executed_m_s) < 1e-3
+
+
+def test_recovery_from_inside_a_limitation_only_allows_reducing_the_violation():
+    scene = demo_scene()
+    t1, t2 = scene.arm.inverse_kinematics(-0.38, 0.26)  # inside the rectangle, 3 cm from its top
+    state = PlanarState(t1, t2)
+    rectangle = next(lim for lim in scene.limitations if lim.name == "F rectangle zone")
+    d0 = rectangle.distance(Kinematics(scene.arm, t1, t2))
+    assert d0 == pytest.approx(-0.03)
+    out, _ = step(state, (0.0, 0.3), 0.002, scene)  # toward the nearest face: allowed
+    assert rectangle.distance(Kinematics(scene.arm, out.theta_1, out.theta_2)) > d0 + 1e-4
+    deeper, info = step(state, (0.0, -0.3), 0.002, scene)  # deeper: refused
+    assert rectangle.distance(Kinematics(scene.arm, deeper.theta_1, deeper.theta_2)) >= d0 - 1e-12
+    assert "F rectangle zone" in info.binding
+
+
+def test_non_finite_command_gives_zero_and_a_warning(caplog):
+    robot = PlanarTeleop()
+    before = robot.p_base_ee_m
+    with caplog.at_level(logging.WARNING):
+        report = robot.step(np.array([np.nan, 0.1]), 0.002)
+    np.testing.assert_array_equal(report.v_commanded_m_s, [0.0, 0.0])
+    np.testing.assert_array_equal(robot.p_base_ee_m, before)
+    assert all(math.isfinite(v) for v in robot.p_base_ee_m)
+    assert "not finite" in caplog.text
+
+
+def test_wrong_shapes_name_the_argument():
+    robot = PlanarTeleop()
+    with pytest.raises(ValueError, match="v_desired_m_s"):
+        robot.step(np.zeros(3), 0.002)
+    with pytest.raises(ValueError, match="dt_s"):
+        step(robot.state, (0.0, 0.0), 0.0, robot.scene)
+    with pytest.raises(ValueError, match="method"):
+        robot.step(np.zeros(2), 0.002, "teleport")
