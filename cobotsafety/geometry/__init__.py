@@ -1,0 +1,1 @@
+"""Pure, batched geometry: capsules and their distances."""

@@ -1,0 +1,140 @@
+"""capsule_distance against coal (random and every degenerate family), symmetry, witnesses."""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pytest
+
+from cobotsafety import capsule_distance
+from cobotsafety.geometry.capsule import segment_closest_points
+
+
+def rotation_z_to(direction: np.ndarray) -> np.ndarray:
+    """A rotation matrix taking +z to ``direction`` (unit)."""
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(z, direction)
+    c = float(z @ direction)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx * (1.0 / (1.0 + c))
+
+
+def coal_shape(p0, p1, radius):
+    axis = p1 - p0
+    length = np.linalg.norm(axis)
+    centre = (p0 + p1) / 2
+    if length < 1e-12:
+        return coal.Sphere(radius), coal.Transform3s(np.eye(3), centre)
+    return coal.Capsule(radius, length), coal.Transform3s(rotation_z_to(axis / length), centre)
+
+
+def coal_distance(a0, a1, ra, b0, b1, rb) -> float:
+    sa, ta = coal_shape(a0, a1, ra)
+    sb, tb = coal_shape(b0, b1, rb)
+    return coal.distance(sa, ta, sb, tb, coal.DistanceRequest(), coal.DistanceResult())
+
+
+def degenerate_cases(rng):
+    """Parallel, antiparallel, collinear (overlapping and apart), zero-length, crossing, touching."""
+    cases = []
+    for _ in range(300):
+        p = rng.normal(size=3)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        offset = np.cross(d, rng.normal(size=3))
+        offset *= rng.uniform(0.0, 1.0) / max(np.linalg.norm(offset), 1e-12)
+        L1, L2 = rng.uniform(0.1, 1.0, 2)
+        shift = rng.uniform(-1.5, 1.5)
+        ra, rb = rng.uniform(0.01, 0.2, 2)
+        cases += [
+            (p, p + L1 * d, ra, p + offset + shift * d, p + offset + (shift + L2) * d, rb),  # parallel
+            (p, p + L1 * d, ra, p + offset + (shift + L2) * d, p + offset + shift * d, rb),  # antiparallel
+            (p, p + L1 * d, ra, p + shift * d, p + (shift + L2) * d, rb),  # collinear
+            (p, p, ra, p + offset, p + offset + L2 * d, rb),  # A is a point
+            (p, p + L1 * d, ra, p + offset, p + offset, rb),  # B is a point
+            (p, p, ra, p + offset, p + offset, rb),  # two points
+        ]
+        e = np.cross(d, offset if np.linalg.norm(offset) > 1e-9 else rng.normal(size=3))
+        e /= np.linalg.norm(e)
+        mid = p + 0.5 * L1 * d
+        cases.append((p, p + L1 * d, ra, mid - 0.5 * L2 * e, mid + 0.5 * L2 * e, rb))  # crossing
+        cases.append((p, p + L1 * d, ra, p + L1 * d, p + L1 * d + L2 * e, rb))  # sharing an end
+    return cases
+
+
+def random_cases(rng, n):
+    return [(rng.normal(size=3), rng.normal(size=3), rng.uniform(0, 0.3), rng.normal(size=3),
+             rng.normal(size=3), rng.uniform(0, 0.3)) for _ in range(n)]
+
+
+def check_against_coal(cases):
+    arrays = [np.array([c[i] for c in cases]) for i in range(6)]
+    distance, point_a, point_b = capsule_distance(*arrays)
+    assert np.all(np.isfinite(distance)) and np.all(np.isfinite(point_a)) and np.all(np.isfinite(point_b))
+    expected = np.array([coal_distance(*c) for c in cases])
+    # Separated and overlapping alike (coal's capsule-capsule distance is signed too).
+    np.testing.assert_allclose(distance, expected, atol=1e-9)
+    overlapping = int(np.sum(expected < 0))
+    # Witness points lie on their segments and realise the axis distance.
+    a0, a1, ra, b0, b1, rb = arrays
+    np.testing.assert_allclose(np.linalg.norm(point_a - point_b, axis=-1) - ra - rb, distance, atol=1e-12)
+    for p, s0, s1 in ((point_a, a0, a1), (point_b, b0, b1)):
+        seg = s1 - s0
+        length2 = np.einsum("ij,ij->i", seg, seg)
+        t = np.einsum("ij,ij->i", p - s0, seg) / np.where(length2 > 0, length2, 1.0)
+        assert np.all((t >= -1e-12) & (t <= 1 + 1e-12))
+        np.testing.assert_allclose(s0 + t[:, None] * seg, p, atol=1e-12)
+    return overlapping
+
+
+def test_matches_coal_on_random_capsules():
+    assert check_against_coal(random_cases(np.random.default_rng(0), 10_000)) > 500  # some overlap
+
+
+def test_matches_coal_on_every_degenerate_family():
+    assert check_against_coal(degenerate_cases(np.random.default_rng(1))) > 500
+
+
+def test_overlap_depth_is_exact_when_the_axes_cross():
+    d, pa, pb = capsule_distance([0, 0, 0], [1, 0, 0], 0.1, [0.5, -1, 0], [0.5, 1, 0], 0.2)
+    assert d == pytest.approx(-0.3)
+    np.testing.assert_allclose(pa, [0.5, 0, 0])
+    np.testing.assert_allclose(pb, [0.5, 0, 0])
+
+
+def test_symmetry():
+    rng = np.random.default_rng(2)
+    a0, a1, b0, b1 = (rng.normal(size=(1000, 3)) for _ in range(4))
+    ra, rb = rng.uniform(0, 0.3, (2, 1000))
+    d_ab, pa, pb = capsule_distance(a0, a1, ra, b0, b1, rb)
+    d_ba, qb, qa = capsule_distance(b0, b1, rb, a0, a1, ra)
+    np.testing.assert_allclose(d_ab, d_ba, atol=1e-12)
+    np.testing.assert_allclose(pa, qa, atol=1e-9)
+    np.testing.assert_allclose(pb, qb, atol=1e-9)
+
+
+def test_closest_points_are_optimal_by_sampling():
+    rng = np.random.default_rng(3)
+    s = np.linspace(0, 1, 201)
+    for _ in range(50):
+        a0, a1, b0, b1 = rng.normal(size=(4, 3))
+        pa, pb = segment_closest_points(a0, a1, b0, b1)
+        A = a0 + s[:, None] * (a1 - a0)
+        B = b0 + s[:, None] * (b1 - b0)
+        brute = np.min(np.linalg.norm(A[:, None] - B[None], axis=-1))
+        assert np.linalg.norm(pa - pb) <= brute + 1e-12
+
+
+def test_broadcasting_five_human_by_three_robot_capsules():
+    rng = np.random.default_rng(4)
+    h0, h1 = rng.normal(size=(2, 5, 1, 3))
+    r0, r1 = rng.normal(size=(2, 1, 3, 3))
+    hr, rr = np.full((5, 1), 0.1), np.full((1, 3), 0.05)
+    d, pa, pb = capsule_distance(h0, h1, hr, r0, r1, rr)
+    assert d.shape == (5, 3) and pa.shape == (5, 3, 3) and pb.shape == (5, 3, 3)
+    for i in range(5):
+        for j in range(3):
+            single, _, _ = capsule_distance(h0[i, 0], h1[i, 0], 0.1, r0[0, j], r1[0, j], 0.05)
+            assert d[i, j] == pytest.approx(float(single), abs=1e-15)
