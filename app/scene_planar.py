@@ -1,0 +1,155 @@
+"""The planar scene of paper 1 seen from above: RR arm, limitations A-G, binding highlighted.
+
+Nodes are made once (``PlanarView(...)``); ``update`` only moves them and recolours the
+limitations the command slides on. ``redraw_limitations`` rebuilds the limitation drawings
+after the zone editor or the scene selector changed the scene.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import viser
+
+from cobotsafety.app import draw
+from cobotsafety.app.control_loop import LoopSnapshot
+from cobotsafety.planar.limitations import (
+    CircleKeepIn,
+    CircleKeepOut,
+    JointLimit,
+    LinkCircleZone,
+    PlanarLimitation,
+    PolygonZone,
+    RectangleZone,
+)
+from cobotsafety.planar.teleop import PlanarTeleop
+
+LINK_RADIUS_M = 0.012
+ROOT = "/planar"
+
+ARM_COLOUR = (90, 140, 230)
+ZONE_COLOUR = (230, 120, 40)
+LIMIT_COLOUR = (110, 110, 120)
+
+
+def limitation_outline(limitation: PlanarLimitation, teleop: PlanarTeleop) -> np.ndarray | None:
+    """Shape (m, 2, 3) segments drawing ``limitation`` in the plane, or None (not drawable)."""
+    arm = teleop.scene.arm
+    if isinstance(limitation, (CircleKeepOut, CircleKeepIn)):
+        return draw.polyline_segments(draw.circle_points(limitation.center_m, limitation.radius_m))
+    if isinstance(limitation, LinkCircleZone):
+        return draw.polyline_segments(draw.circle_points(limitation.center_m, limitation.radius_m))
+    if isinstance(limitation, RectangleZone):
+        return draw.polyline_segments(np.array(limitation.vertices()))
+    if isinstance(limitation, PolygonZone):
+        return draw.polyline_segments(np.array(limitation.vertices_m))
+    if isinstance(limitation, JointLimit) and limitation.joint == 2:
+        l1, l2 = arm.link_1_m, arm.link_2_m
+        parts = []
+        for theta_2 in (limitation.lower_rad, limitation.upper_rad):
+            radius = math.sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * math.cos(theta_2))
+            parts.append(draw.polyline_segments(draw.circle_points((0.0, 0.0), radius)))
+        return np.concatenate(parts)
+    if isinstance(limitation, JointLimit) and limitation.joint == 1:
+        reach = arm.link_1_m + arm.link_2_m
+        rays = [[[0.0, 0.0, 0.0], [reach * math.cos(a), reach * math.sin(a), 0.0]]
+                for a in (limitation.lower_rad, limitation.upper_rad)]
+        return np.array(rays)
+    return None
+
+
+def is_zone(limitation: PlanarLimitation) -> bool:
+    return isinstance(limitation, (RectangleZone, PolygonZone, LinkCircleZone)) or (
+        isinstance(limitation, CircleKeepOut) and limitation.center_m != (0.0, 0.0))
+
+
+class PlanarView:
+    """Scene nodes of the planar arm; ``update`` moves them from a loop snapshot."""
+
+    def __init__(self, server: viser.ViserServer, teleop: PlanarTeleop):
+        self.server = server
+        self.teleop = teleop
+        scene = server.scene
+        scene.set_up_direction("+z")
+        server.initial_camera.position = (0.0, -0.05, 1.6)
+        server.initial_camera.look_at = (0.0, 0.1, 0.0)
+        self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
+                                   position=(0.0, 0.0, -0.002))
+        arm = teleop.scene.arm
+        self.base = scene.add_icosphere(f"{ROOT}/base", radius=0.03, color=(60, 60, 70))
+        self.links = [
+            scene.add_mesh_simple(f"{ROOT}/link_{i}", *_arrays(draw.capsule_mesh(length, LINK_RADIUS_M)),
+                                  color=(70, 70, 80))
+            for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
+        ]
+        self.capsules = [
+            scene.add_mesh_simple(f"{ROOT}/capsule_{i}", *_arrays(draw.capsule_mesh(length, 2.5 * LINK_RADIUS_M)),
+                                  color=ARM_COLOUR, opacity=0.35)
+            for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
+        ]
+        self.ee = scene.add_icosphere(f"{ROOT}/ee", radius=0.015, color=(30, 30, 200))
+        self._limit_nodes: dict[str, tuple[object, tuple[int, int, int]]] = {}
+        self._label_nodes: list[object] = []
+        self._highlighted: tuple[str, ...] = ()
+        self.redraw_limitations()
+
+    # -- limitations ---------------------------------------------------------------------
+    def redraw_limitations(self) -> None:
+        """(Re)build one line node and one label per drawable limitation of the current scene."""
+        for node, _ in self._limit_nodes.values():
+            node.remove()
+        for label in self._label_nodes:
+            label.remove()
+        self._limit_nodes, self._label_nodes, self._highlighted = {}, [], ()
+        for index, limitation in enumerate(self.teleop.scene.limitations):
+            segments = limitation_outline(limitation, self.teleop)
+            if segments is None:
+                continue
+            colour = ZONE_COLOUR if is_zone(limitation) else LIMIT_COLOUR
+            node = self.server.scene.add_line_segments(
+                f"{ROOT}/limits/{index}", segments, colour, thickness=0.004)
+            self._limit_nodes[limitation.name] = (node, colour)
+            anchor = segments[:, 0, :].mean(axis=0) if is_zone(limitation) else segments[0, 0, :]
+            self._label_nodes.append(self.server.scene.add_label(
+                f"{ROOT}/labels/{index}", limitation.name.split(" ")[0], position=anchor, font_screen_scale=0.7))
+
+    def set_teleop(self, teleop: PlanarTeleop) -> None:
+        self.teleop = teleop
+        self.redraw_limitations()
+
+    def highlight(self, binding: tuple[str, ...]) -> None:
+        """Colour the limitations whose name starts a binding row's name; restore the others."""
+        if binding == self._highlighted:
+            return
+        for name, (node, colour) in self._limit_nodes.items():
+            active = any(row == name or row.startswith(name + " ") for row in binding)
+            count = node.points.shape[0]
+            node.colors = np.tile(np.array(draw.HIGHLIGHT if active else colour, dtype=np.uint8), (count, 2, 1))
+            node.thickness = 0.008 if active else 0.004
+        self._highlighted = binding
+
+    # -- per frame -----------------------------------------------------------------------
+    def end_effector_m(self) -> np.ndarray:
+        return np.asarray(self.teleop.p_base_ee_m, dtype=float)
+
+    def update(self, snapshot: LoopSnapshot, elbow_m: np.ndarray) -> None:
+        """Move links and end-effector to the snapshot's pose; ``elbow_m`` shape (3,) [m]."""
+        ee = snapshot.p_base_ee_m
+        for i, (start, end) in enumerate(((np.zeros(3), elbow_m), (elbow_m, ee))):
+            wxyz = draw.wxyz_z_to(end - start)
+            for node in (self.links[i], self.capsules[i]):
+                node.position = start
+                node.wxyz = wxyz
+        self.ee.position = ee
+        self.highlight(snapshot.report.binding if snapshot.report is not None else ())
+
+    def remove(self) -> None:
+        for node, _ in self._limit_nodes.values():
+            node.remove()
+        for node in [*self._label_nodes, *self.links, *self.capsules, self.ee, self.base, self.grid]:
+            node.remove()
+
+
+def _arrays(mesh):
+    return np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.uint32)

@@ -1,0 +1,222 @@
+"""``DemoApp``: the viser server, one shared robot for every browser tab, and the render loop.
+
+viser broadcasts ``server.scene``/``server.gui`` to every client, so all tabs see the same robot;
+a gizmo drag from any tab drives it. The control loop (``ControlLoop``, 500 Hz) and the render
+loop (``render_hz``) are separate threads; a client that disconnects mid-drag releases the gizmo.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import viser
+
+from cobotsafety.app import jog as jog_module
+from cobotsafety.app.control_loop import ControlLoop, LoopSettings
+from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
+from cobotsafety.app.panel import PLANAR_SCENES, make_panel, status_text
+from cobotsafety.app.plots import PlotHistory, Plots
+from cobotsafety.errors import CobotSafetyError, UnknownRobotError
+
+logger = logging.getLogger(__name__)
+
+PLANAR = "planar"
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    scene: str = "planar"
+    """``planar`` (paper 1's RR arm) or ``arm`` (a pinocchio arm)."""
+    robot: str | None = None
+    """Arm name for ``scene="arm"``; None = the arm package's default."""
+    replay: Path | None = None
+    """Human recording (.jsonl.gz or ROS bag); None = the bundled one when available."""
+    host: str = "127.0.0.1"
+    port: int = 8080
+    rate_hz: float = 500.0
+    render_hz: float = 30.0
+
+
+def supported_robots() -> tuple[str, ...]:
+    """``planar`` plus the arm names of ``cobotsafety.arm`` when it is installed."""
+    try:
+        from cobotsafety.arm import robots  # noqa: PLC0415
+    except ImportError:
+        return (PLANAR,)
+    return (PLANAR, *robots.ROBOT_NAMES)
+
+
+def make_planar(scene_label: str = PLANAR_SCENES[0]):
+    from cobotsafety.planar.scenarios import demo_scene, fig9_scene  # noqa: PLC0415
+    from cobotsafety.planar.teleop import PlanarTeleop  # noqa: PLC0415
+
+    if scene_label == PLANAR_SCENES[1]:
+        return PlanarTeleop(fig9_scene("a"))
+    if scene_label == PLANAR_SCENES[2]:
+        return PlanarTeleop(fig9_scene("b"))
+    return PlanarTeleop(demo_scene())
+
+
+class DemoApp:
+    """The running demo. ``start()`` then ``url``; ``stop()`` shuts everything down."""
+
+    def __init__(self, config: DemoConfig = DemoConfig()):
+        if config.scene != "planar":
+            if config.scene != "arm":
+                raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
+            raise UnknownRobotError(
+                f"the 3D arm scene needs cobotsafety.arm, which is not available; known robots: {supported_robots()}")
+        self.config = config
+        self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
+        self.server.gui.configure_theme(control_width="large")
+        robot = make_planar()
+        self.loop = ControlLoop(robot, LoopSettings(rate_hz=config.rate_hz))
+        from cobotsafety.app.scene_planar import PlanarView  # noqa: PLC0415
+        from cobotsafety.app.zones_editor import PlanarZoneEditor  # noqa: PLC0415
+
+        self.view = PlanarView(self.server, robot)
+        self.gizmo = self.server.scene.add_transform_controls(
+            "/gizmo", scale=0.12, active_axes=(True, True, False), disable_rotations=True,
+            position=tuple(robot.p_base_ee_m))
+        self.panel = make_panel(self.server, supported_robots(), PLANAR, robot.dim, (), self.loop.gizmo,
+                                ssm_available=False)
+        self.panel.replay_message.content = "Human replay: waiting for `cobotsafety.human` (issue 4)."
+        self.zones = PlanarZoneEditor(self.server, self.loop, self._redraw)
+        self.plots = Plots(self.server)
+        self.history = PlotHistory()
+        self._dragging_client: int | None = None
+        self._render_thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.frames = 0
+        self._last_render_error = ""
+        self._wire()
+
+    # ---- wiring --------------------------------------------------------------------------
+    def _wire(self) -> None:
+        panel, loop = self.panel, self.loop
+
+        @self.gizmo.on_update
+        def _(event: viser.TransformControlsEvent) -> None:
+            if event.phase == "end":
+                self._dragging_client = None
+                loop.release_gizmo()
+            elif loop.set_gizmo_target(np.asarray(event.target.position, dtype=float)):
+                self._dragging_client = event.client_id
+
+        @self.server.on_client_disconnect
+        def _(client: viser.ClientHandle) -> None:
+            if client.client_id == self._dragging_client:
+                self._dragging_client = None
+                loop.release_gizmo()
+
+        @panel.mode.on_update
+        def _(_event) -> None:
+            loop.method = panel.mode.value
+
+        @panel.reset.on_click
+        def _(_event) -> None:
+            loop.reset()
+            self.history.clear()
+
+        @panel.planar_scene.on_update
+        def _(_event) -> None:
+            self.set_planar_scene(panel.planar_scene.value)
+
+        @panel.fig9.on_click
+        def _(_event) -> None:
+            self.run_fig9()
+
+        def settings_changed(_event) -> None:
+            try:
+                loop.gizmo = GizmoSettings(panel.dead_band_m.value, panel.gain_per_s.value, panel.max_speed_m_s.value)
+            except GizmoSettingsError as error:
+                logger.warning("gizmo settings refused: %s", error)
+
+        for slider in (panel.dead_band_m, panel.gain_per_s, panel.max_speed_m_s):
+            slider.on_update(settings_changed)
+
+        @panel.jog.on_click
+        def _(_event) -> None:
+            try:
+                loop.jog(jog_module.jog_velocity(panel.jog.value, panel.jog_speed_m_s.value, loop.robot.dim))
+            except CobotSafetyError as error:
+                logger.warning("jog refused: %s", error)
+
+    # ---- actions ------------------------------------------------------------------------
+    def set_planar_scene(self, label: str) -> None:
+        robot = make_planar(label)
+        with self.loop.lock:
+            self.loop.replace_robot(robot)
+            self.view.set_teleop(robot)
+        self.zones.reset()
+        self.history.clear()
+
+    def run_fig9(self) -> None:
+        """Paper 1, Fig. 9 b: start pose, then pull the end-effector to the target as a held drag."""
+        from cobotsafety.planar.scenarios import FIG9_TARGET_M  # noqa: PLC0415
+
+        self.panel.planar_scene.value = PLANAR_SCENES[2]  # fires set_planar_scene through the callback
+        self.set_planar_scene(PLANAR_SCENES[2])
+        self.loop.set_gizmo_target(np.array([*FIG9_TARGET_M, 0.0]))
+
+    def _redraw(self) -> None:
+        self.view.redraw_limitations()
+
+    # ---- render loop --------------------------------------------------------------------
+    def render_once(self) -> None:
+        snapshot = self.loop.snapshot()
+        elbow = np.asarray(self.loop.read(lambda robot: robot.p_base_elbow_m), dtype=float)
+        with self.server.atomic():
+            self.view.update(snapshot, elbow)
+            if not snapshot.dragging and self._dragging_client is None:
+                if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
+                    self.gizmo.position = tuple(snapshot.p_base_ee_m)
+        report = snapshot.report
+        min_distance = report.min_distance_m if report is not None else None
+        self.history.add(snapshot, min_distance)
+        self.frames += 1
+        if self.frames % 6 == 0:  # status and plots at ~5 Hz
+            text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
+                               report.binding if report is not None else (), snapshot.p_base_ee_m,
+                               bool(report is not None and report.stopped))
+            if text != self.panel.status.content:
+                self.panel.status.content = text
+            self.plots.push(self.history)
+
+    def _render_run(self) -> None:
+        period = 1.0 / self.config.render_hz
+        while not self._stop.is_set():
+            start = time.perf_counter()
+            try:
+                self.render_once()
+            except Exception as error:  # noqa: BLE001 - a rendering glitch must not stop the demo
+                if repr(error) != self._last_render_error:  # log each distinct failure once
+                    logger.exception("render frame failed")
+                    self._last_render_error = repr(error)
+            self._stop.wait(max(0.0, period - (time.perf_counter() - start)))
+
+    # ---- lifecycle ----------------------------------------------------------------------
+    @property
+    def url(self) -> str:
+        host = self.server.get_host()
+        shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
+        return f"http://{shown}:{self.server.get_port()}"
+
+    def start(self) -> "DemoApp":
+        self.loop.start()
+        self._stop.clear()
+        self._render_thread = threading.Thread(target=self._render_run, name="cobotsafety-render", daemon=True)
+        self._render_thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._render_thread is not None:
+            self._render_thread.join(timeout=2.0)
+        self.loop.stop()
+        self.server.stop()
