@@ -81,7 +81,8 @@ class DemoApp:
 
         self.view = PlanarView(self.server, robot)
         self.gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.12, active_axes=(True, True, False), disable_rotations=True,
+            "/gizmo", scale=0.15, line_width=4.0, active_axes=(True, True, False), disable_rotations=True,
+            depth_test=False,
             position=tuple(robot.p_base_ee_m))
         self.panel = make_panel(self.server, supported_robots(), PLANAR, robot.dim, (), self.loop.gizmo,
                                 ssm_available=False)
