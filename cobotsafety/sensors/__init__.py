@@ -1,0 +1,1 @@
+"""Sensor pipelines: the 2D laser (legs -> torso) and the IMU limb chain."""

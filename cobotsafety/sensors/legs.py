@@ -1,0 +1,132 @@
+"""Leg detection from one laser scan, and the torso from the legs (paper 2, section 2.1.4).
+
+The paper mirrors the clipped, filtered range profile and takes its peaks (the range minima)
+as legs, each centred one leg radius behind its minimum (eq. 3); the torso is the midpoint of
+the two legs (eq. 4). Raw peak picking also fires on table legs, wall corners and noise, so a
+minimum counts as a leg only when it is the closest point of a *cluster* of neighbouring returns
+(consecutive beams whose ranges differ by less than ``jump_m``) that
+
+* stands out from both neighbours (each is farther by ``jump_m``, or has no return): a peak of
+  the mirrored profile with that prominence;
+* is as wide as a leg, or two legs together (``min_width_m`` .. ``max_width_m`` chord);
+* is not part of the static background (``background``: the empty scene's ranges; beams within
+  ``background_margin_m`` of it are ignored).
+
+Never invents a person: no cluster, no leg. No-return readings (0, inf, NaN, out of range)
+are never legs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cobotsafety.sensors.laser_filters import moving_average
+from cobotsafety.sensors.laser_scan import LaserScan
+
+#: Leg radius rho_l of eq. 3 [m].
+LEG_RADIUS_M = 0.06
+
+
+def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray | None,
+                    background_margin_m: float = 0.10) -> np.ndarray:
+    """Beams with a usable return within ``max_range_m`` that are in front of the background."""
+    mask = scan.valid & (scan.ranges <= max_range_m)
+    if background is not None:
+        background = np.asarray(background, dtype=float)
+        if background.shape != scan.ranges.shape:
+            raise ValueError(f"background must have the scan's shape {scan.ranges.shape}, got {background.shape}")
+        with np.errstate(invalid="ignore"):
+            far = ~np.isfinite(background) | (background <= 0.0)
+            mask &= far | (scan.ranges < background - background_margin_m)
+    return mask
+
+
+def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
+                leg_radius_m: float = LEG_RADIUS_M, jump_m: float = 0.10, min_width_m: float = 0.03,
+                max_width_m: float = 0.40, smoothing_beams: int = 3,
+                background_margin_m: float = 0.10) -> np.ndarray:
+    """Leg centres [m] in the scanner frame, shape (k, 2) (k = 0 when nobody is there).
+
+    Args:
+        scan: the scan (any beam count and resolution).
+        max_range_m: clipping range (paper: 1.4 m); returns beyond it are ignored.
+        background: optional ranges of the empty scene, same beams; static objects are ignored.
+    """
+    ranges = scan.ranges
+    mask = foreground_mask(scan, max_range_m, background, background_margin_m)
+    if not np.any(mask):
+        return np.zeros((0, 2))
+    angles = scan.angles
+    n = ranges.size
+    idx = np.flatnonzero(mask)
+    # Split the foreground beams into clusters at gaps and range jumps.
+    breaks = (np.diff(idx) > 1) | (np.abs(np.diff(ranges[idx])) >= jump_m)
+    starts = np.concatenate([[0], np.flatnonzero(breaks) + 1])
+    ends = np.concatenate([np.flatnonzero(breaks), [idx.size - 1]])
+    legs = []
+    for s, e in zip(starts, ends):
+        beams = idx[s:e + 1]
+        r = ranges[beams]
+        first, last = beams[0], beams[-1]
+        # Prominence: both neighbours farther by jump_m, or without a usable return.
+        prominent = True
+        for neighbour in (first - 1, last + 1):
+            if 0 <= neighbour < n and scan.valid[neighbour] and ranges[neighbour] < max_range_m + jump_m:
+                edge_range = ranges[first] if neighbour < first else ranges[last]
+                if ranges[neighbour] - edge_range < jump_m:
+                    prominent = False
+        if not prominent:
+            continue
+        p_first = ranges[first] * np.array([np.cos(angles[first]), np.sin(angles[first])])
+        p_last = ranges[last] * np.array([np.cos(angles[last]), np.sin(angles[last])])
+        width = float(np.linalg.norm(p_last - p_first))
+        if not min_width_m <= width <= max_width_m:
+            continue
+        smoothed = moving_average(r, min(smoothing_beams, r.size))
+        k = int(np.argmin(smoothed))
+        theta, rho = angles[beams[k]], smoothed[k] + leg_radius_m  # eq. 3
+        legs.append((rho * np.cos(theta), rho * np.sin(theta)))
+    return np.array(legs).reshape(-1, 2)
+
+
+def torsos_from_legs(legs_m: np.ndarray, max_leg_separation_m: float = 0.6) -> np.ndarray:
+    """Torso positions [m], shape (p, 2): the midpoint of each pair of legs (eq. 4).
+
+    Legs are paired greedily, closest pairs first, when closer than ``max_leg_separation_m``;
+    an unpaired leg (the other hidden, or both legs seen as one cluster) is a torso on its own.
+    """
+    legs_m = np.asarray(legs_m, dtype=float).reshape(-1, 2)
+    k = legs_m.shape[0]
+    if k == 0:
+        return np.zeros((0, 2))
+    distance = np.linalg.norm(legs_m[:, None] - legs_m[None], axis=-1)
+    distance[np.arange(k), np.arange(k)] = np.inf
+    used = np.zeros(k, dtype=bool)
+    torsos = []
+    for flat in np.argsort(distance, axis=None):
+        i, j = divmod(int(flat), k)
+        if distance[i, j] > max_leg_separation_m:
+            break
+        if i < j and not used[i] and not used[j]:
+            used[i] = used[j] = True
+            torsos.append((legs_m[i] + legs_m[j]) / 2)
+    torsos += [legs_m[i] for i in range(k) if not used[i]]
+    return np.array(torsos).reshape(-1, 2)
+
+
+def estimate_background(scans: list[LaserScan], percentile: float = 100.0,
+                        open_fraction: float = 0.9) -> np.ndarray:
+    """The empty scene from a recording with people in it, shape (n,) [m].
+
+    A person occludes a beam only part of the time, so the farthest valid reading of each beam
+    (``percentile`` = 100; lower it for noisy scanners) is the static scene behind them. A beam
+    without a return in at least ``open_fraction`` of the scans looks into open space: inf.
+    A person who never moves stays part of the background.
+    """
+    ranges = np.array([scan.ranges for scan in scans], dtype=float)
+    valid = np.array([scan.valid for scan in scans])
+    masked = np.where(valid, ranges, np.nan)
+    background = np.full(ranges.shape[1], np.inf)
+    seen = valid.mean(axis=0) > 1.0 - open_fraction
+    background[seen] = np.nanpercentile(masked[:, seen], percentile, axis=0)
+    return background
