@@ -1,0 +1,157 @@
+"""Time alignment of sensor streams (paper 2, section 5): laser ~50 Hz, IMUs ~300 Hz.
+
+Each stream keeps its own timestamps [s]. ``value_at(t_s)`` interpolates between the two
+samples around ``t_s`` (linear for vectors, slerp for orientations) and holds the newest sample
+past the end. ``until_s`` hides samples stamped after it, so a replay can be causal (the value
+at control time t uses only samples that existed at t). ``age_s(t_s)`` is the time since the
+newest visible sample; ``is_stale`` compares it with the stream's threshold.
+
+Garbage (non-finite values, non-unit quaternions, time going backwards) is refused by
+``push``: the sample is dropped, counted and described in ``last_rejection``, so a sensor that
+returns garbage simply goes stale and the human model turns conservative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+#: Quaternion norm tolerance for live samples (|norm - 1|).
+UNIT_QUATERNION_TOLERANCE = 1e-3
+
+
+class VectorStream:
+    """Timestamped samples of shape (dim,); linear interpolation."""
+
+    def __init__(self, name: str, dim: int, stale_after_s: float, capacity: int = 1024):
+        if not stale_after_s > 0:
+            raise ValueError(f"stale_after_s must be > 0, got {stale_after_s}")
+        self.name = name
+        self.dim = int(dim)
+        self.stale_after_s = float(stale_after_s)
+        self._t = np.empty(capacity)
+        self._v = np.empty((capacity, self._width()))
+        self._n = 0
+        self.rejected = 0
+        self.last_rejection = ""
+
+    def _width(self) -> int:
+        return self.dim
+
+    def _check(self, value: np.ndarray) -> str:
+        if value.shape != (self._width(),):
+            return f"shape {value.shape}, expected ({self._width()},)"
+        if not np.isfinite(value).all():
+            return "non-finite value"
+        return ""
+
+    def push(self, t_s: float, value) -> bool:
+        """Append one sample; returns False (and keeps the stream unchanged) on garbage."""
+        value = np.asarray(value, dtype=float).reshape(-1)
+        problem = self._check(value)
+        if not problem and not np.isfinite(t_s):
+            problem = f"non-finite time {t_s}"
+        if not problem and self._n and t_s <= self._t[self._n - 1]:
+            problem = f"time {t_s} not after the previous sample {self._t[self._n - 1]}"
+        if problem:
+            self.rejected += 1
+            self.last_rejection = f"{self.name}: {problem}"
+            return False
+        if self._n == len(self._t):
+            self._t = np.concatenate([self._t, np.empty_like(self._t)])
+            self._v = np.concatenate([self._v, np.empty_like(self._v)])
+        self._t[self._n] = t_s
+        self._v[self._n] = self._normalised(value)
+        self._n += 1
+        return True
+
+    def _normalised(self, value: np.ndarray) -> np.ndarray:
+        return value
+
+    @classmethod
+    def from_arrays(cls, name: str, t_s: np.ndarray, values: np.ndarray, stale_after_s: float):
+        """A stream from already validated arrays: ``t_s`` (n,) increasing, ``values`` (n, dim)."""
+        t = np.asarray(t_s, dtype=float)
+        values = np.asarray(values, dtype=float).reshape(len(t), -1)
+        if len(t) > 1 and not (np.diff(t) > 0).all():
+            raise ValueError(f"{name}: timestamps must increase")
+        if cls is VectorStream:
+            stream = cls(name, values.shape[1], stale_after_s, capacity=max(1, len(t)))
+        else:
+            stream = cls(name, stale_after_s, capacity=max(1, len(t)))
+        stream._t[: len(t)] = t
+        stream._v[: len(t)] = stream._normalised(values)
+        stream._n = len(t)
+        return stream
+
+    @property
+    def times_s(self) -> np.ndarray:
+        return self._t[: self._n]
+
+    def __len__(self) -> int:
+        return self._n
+
+    def _visible(self, until_s: float | None) -> int:
+        if until_s is None:
+            return self._n
+        return int(np.searchsorted(self._t[: self._n], until_s, side="right"))
+
+    def newest_s(self, until_s: float | None = None) -> float:
+        """Stamp of the newest visible sample [s]; -inf when there is none."""
+        n = self._visible(until_s)
+        return float(self._t[n - 1]) if n else -np.inf
+
+    def age_s(self, t_s: float, until_s: float | None = None) -> float:
+        """``t_s`` minus the newest visible stamp [s]; inf when empty."""
+        return float(t_s - self.newest_s(until_s))
+
+    def is_stale(self, t_s: float, until_s: float | None = None) -> bool:
+        return self.age_s(t_s, until_s) > self.stale_after_s
+
+    def _bracket(self, t_s: float, until_s: float | None):
+        n = self._visible(until_s)
+        if n == 0:
+            raise LookupError(f"stream {self.name!r} has no sample at or before {until_s}")
+        t = self._t[:n]
+        k = int(np.searchsorted(t, t_s, side="right"))
+        if k == 0:
+            return 0, 0, 0.0
+        if k == n:
+            return n - 1, n - 1, 0.0
+        return k - 1, k, float((t_s - t[k - 1]) / (t[k] - t[k - 1]))
+
+    def value_at(self, t_s: float, until_s: float | None = None) -> np.ndarray:
+        """Shape (dim,): linear interpolation; first/newest sample held outside the range."""
+        i, j, frac = self._bracket(t_s, until_s)
+        return (1.0 - frac) * self._v[i] + frac * self._v[j]
+
+
+class QuaternionStream(VectorStream):
+    """Timestamped orientations, scalar-last quaternions ``(x, y, z, w)``; slerp between them."""
+
+    def __init__(self, name: str, stale_after_s: float, capacity: int = 1024):
+        super().__init__(name, 4, stale_after_s, capacity)
+
+    def _width(self) -> int:
+        return 4
+
+    def _check(self, value: np.ndarray) -> str:
+        problem = super()._check(value)
+        if not problem and abs(np.linalg.norm(value) - 1.0) > UNIT_QUATERNION_TOLERANCE:
+            return f"quaternion norm {np.linalg.norm(value):.6f} not within {UNIT_QUATERNION_TOLERANCE} of 1"
+        return problem
+
+    def _normalised(self, value: np.ndarray) -> np.ndarray:
+        return value / np.linalg.norm(value, axis=-1, keepdims=True)
+
+    def rotation_at(self, t_s: float, until_s: float | None = None) -> Rotation:
+        """Slerp between the samples around ``t_s`` (shortest arc); held outside the range."""
+        i, j, frac = self._bracket(t_s, until_s)
+        r0 = Rotation.from_quat(self._v[i])
+        if frac == 0.0:
+            return r0
+        delta = (r0.inv() * Rotation.from_quat(self._v[j])).as_rotvec()
+        return r0 * Rotation.from_rotvec(frac * delta)
+
+    def value_at(self, t_s: float, until_s: float | None = None) -> np.ndarray:
+        return self.rotation_at(t_s, until_s).as_quat()
