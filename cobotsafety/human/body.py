@@ -119,9 +119,9 @@ class HumanCapsules:
         return len(self.names) > 0
 
     @classmethod
-    def absent(cls, t_s: float = 0.0, reason: str = "") -> "HumanCapsules":
-        """No human in the monitored range."""
-        return cls(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), (), t_s=t_s, reason=reason)
+    def absent(cls, t_s: float = 0.0, reason: str = "", stale: bool = False) -> "HumanCapsules":
+        """No human in the monitored range (``stale``: nor can the sensors tell)."""
+        return cls(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), (), t_s=t_s, stale=stale, reason=reason)
 
     def by_name(self, name: str) -> tuple[np.ndarray, np.ndarray, float]:
         """``(p0, p1, radius)`` of the capsule called ``name``."""

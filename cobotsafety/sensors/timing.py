@@ -2,7 +2,7 @@
 
 Each stream keeps its own timestamps [s]. ``value_at(t_s)`` interpolates between the two
 samples around ``t_s`` (linear for vectors, slerp for orientations) and holds the newest sample
-past the end. ``until_s`` hides samples stamped after it, so a replay can be causal (the value
+past the end; across a gap longer than the stale threshold it holds the older sample. ``until_s`` hides samples stamped after it, so a replay can be causal (the value
 at control time t uses only samples that existed at t). ``age_s(t_s)`` is the time since the
 newest visible sample; ``is_stale`` compares it with the stream's threshold.
 
@@ -116,8 +116,8 @@ class VectorStream:
         k = int(np.searchsorted(t, t_s, side="right"))
         if k == 0:
             return 0, 0, 0.0
-        if k == n:
-            return n - 1, n - 1, 0.0
+        if k == n or t[k] - t[k - 1] > self.stale_after_s:  # never interpolate across a gap
+            return k - 1, k - 1, 0.0
         return k - 1, k, float((t_s - t[k - 1]) / (t[k] - t[k - 1]))
 
     def value_at(self, t_s: float, until_s: float | None = None) -> np.ndarray:

@@ -1,0 +1,124 @@
+"""``HumanTracker``: the live pipeline from laser scans and IMU samples to human capsules.
+
+Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving average,
+eq. 2-3, background removal) -> ``torsos_from_legs`` (eq. 4) -> ``ScannerPose.to_base``
+(eq. 10). Per IMU sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy
+interpolated, IMU orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the
+conservative rules of ``conservative.py``. ``until_s`` hides samples stamped after it (a
+causal replay passes ``until_s = t_s``).
+
+Absence: when fresh scans show no legs and the human, last seen ``age`` seconds ago, could have
+walked out of the clipped range since (``could_have_left``), nobody is in range: no capsules.
+Until then the last pose is held with a growing radius.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from cobotsafety.human.body import BodyDimensions, HumanCapsules
+from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left
+from cobotsafety.sensors.imu import IMU_NAMES, base_orientation, calibrate
+from cobotsafety.sensors.laser_filters import TimeFilter
+from cobotsafety.sensors.laser_scan import LaserScan
+from cobotsafety.sensors.legs import detect_legs, torsos_from_legs
+from cobotsafety.sensors.scanner_pose import ScannerPose
+from cobotsafety.sensors.timing import QuaternionStream, VectorStream
+
+#: Paper 2 clips the ranges at 1400 mm.
+MAX_RANGE_M = 1.4
+#: Eq. 1 weight of the newest scan.
+TIME_FILTER_ALPHA = 0.8
+
+
+class HumanTracker:
+    """Push scans and IMU samples (any order across streams, increasing within one), query capsules.
+
+    ``imu_calibration``: name -> ``(q_base_imu_init, q_ref_imu_init)`` (xyzw) for the five
+    ``IMU_NAMES``, or None for a laser-only, 1-capsule human. ``background``: ranges of the
+    empty scene [m], shape (beams,), or None.
+    """
+
+    def __init__(self, body: BodyDimensions, scanner: ScannerPose, imu_calibration: dict | None = None,
+                 background: np.ndarray | None = None, policy: StalePolicy = StalePolicy(),
+                 max_range_m: float = MAX_RANGE_M, time_filter_alpha: float = TIME_FILTER_ALPHA):
+        self.body, self.scanner, self.policy = body, scanner, policy
+        self.max_range_m = max_range_m
+        self.background = background
+        self._filter = TimeFilter(time_filter_alpha)
+        self._last: np.ndarray | None = None
+        self.scans = VectorStream("laser", 1, policy.laser_stale_after_s)
+        self.torso = VectorStream("torso", 2, policy.laser_stale_after_s)
+        self.imus: dict[str, QuaternionStream] = {}
+        self._r_b_ref: dict[str, Rotation] = {}
+        if imu_calibration is not None:
+            missing = set(IMU_NAMES) - set(imu_calibration)
+            if missing:
+                raise ValueError(f"imu_calibration misses {sorted(missing)}; needs {IMU_NAMES}")
+            for name in IMU_NAMES:
+                q_b_init, q_ref_init = imu_calibration[name]
+                self._r_b_ref[name] = calibrate(q_ref_init, q_b_init)  # eq. 5
+                self.imus[name] = QuaternionStream(name, policy.imu_stale_after_s)
+            self._r_b_ref_all = Rotation.concatenate([self._r_b_ref[n] for n in IMU_NAMES])
+
+    def torso_from_scan(self, scan: LaserScan) -> np.ndarray | None:
+        """Shape (2,) torso xy in the base frame [m] nearest the robot, or None (no legs)."""
+        # Clip at the monitored range (paper: 1400 mm); a beam without a return this time
+        # holds its previous filtered value (a dropout carries no information, it is not "far").
+        clipped = np.where(scan.valid, np.minimum(scan.ranges, self.max_range_m),
+                           self.max_range_m if self._last is None else self._last)
+        self._last = self._filter.update(clipped)  # eq. 1
+        ranges = np.where(self._last < self.max_range_m, self._last, 0.0)  # 0 = no return
+        smoothed = LaserScan(scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, ranges)
+        legs = detect_legs(smoothed, self.max_range_m, self.background)
+        torsos = torsos_from_legs(legs)
+        if len(torsos) == 0:
+            return None
+        xy_b = self.scanner.to_base(torsos)
+        return xy_b[int(np.argmin(np.linalg.norm(xy_b, axis=1)))]
+
+    def push_scan(self, t_s: float, scan: LaserScan) -> np.ndarray | None:
+        """Process one scan stamped ``t_s`` [s]; returns the torso xy found, or None."""
+        if not self.scans.push(t_s, [0.0]):
+            return None
+        xy = self.torso_from_scan(scan)
+        if xy is not None:
+            self.torso.push(t_s, xy)
+        return xy
+
+    def push_imu(self, t_s: float, name: str, q_ref_imu) -> bool:
+        """One IMU reading (xyzw, in its reference frame). False when refused as garbage."""
+        if name not in self.imus:
+            raise KeyError(f"unknown IMU {name!r}; known: {sorted(self.imus)}")
+        return self.imus[name].push(t_s, q_ref_imu)
+
+    def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
+        """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None)."""
+        # Ages count from the newest sample at or before t_s, even when later ones are visible.
+        scan_age = self.scans.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
+        torso_age = self.torso.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
+        laser_alive = scan_age <= self.policy.laser_stale_after_s
+        if not np.isfinite(torso_age):
+            reason = "nobody in range" if laser_alive else "laser silent: human position unknown"
+            return HumanCapsules.absent(t_s, reason, stale=not laser_alive)
+        xy = self.torso.value_at(t_s, until_s)
+        if laser_alive and torso_age > self.policy.laser_stale_after_s:
+            distance = float(np.linalg.norm(xy - [self.scanner.x_m, self.scanner.y_m]))
+            if could_have_left(distance, torso_age, self.max_range_m, self.policy):
+                return HumanCapsules.absent(t_s, "nobody in range")
+        if not self.imus:
+            caps = conservative_capsules(t_s, xy, torso_age, self.body, policy=self.policy)
+        else:
+            ages = {name: stream.age_s(t_s, min(t_s, np.inf if until_s is None else until_s)) for name, stream in self.imus.items()}
+            if all(np.isfinite(a) for a in ages.values()):
+                q = np.array([self.imus[name].value_at(t_s, until_s) for name in IMU_NAMES])
+                r_b_imu = base_orientation(self._r_b_ref_all, q)  # eq. 6
+            else:
+                r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
+            ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}
+            caps = conservative_capsules(t_s, xy, torso_age, self.body, r_b_imu, ages, self.policy)
+        if not laser_alive:
+            caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
+                                 reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)
+        return caps
