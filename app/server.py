@@ -43,12 +43,13 @@ class DemoConfig:
 
 
 def supported_robots() -> tuple[str, ...]:
-    """``planar`` plus the arm names of ``cobotsafety.arm`` when it is installed."""
+    """``planar`` plus the arm names of ``cobotsafety.arm`` once its ``ArmTeleop`` exists."""
     try:
-        from cobotsafety.arm import robots  # noqa: PLC0415
+        from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415
+        from cobotsafety.arm.teleop import ArmTeleop  # noqa: F401, PLC0415 - the 3D scene needs it
     except ImportError:
         return (PLANAR,)
-    return (PLANAR, *robots.ROBOT_NAMES)
+    return (PLANAR, *(name for name in ROBOTS if name != PLANAR))
 
 
 def make_planar(scene_label: str = PLANAR_SCENES[0]):
@@ -94,6 +95,8 @@ class DemoApp:
         self._render_thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.frames = 0
+        self.last_gizmo_update_s = 0.0
+        """``time.perf_counter()`` of the last accepted gizmo update (for the latency bench)."""
         self._last_render_error = ""
         self._wire()
 
@@ -108,6 +111,7 @@ class DemoApp:
                 loop.release_gizmo()
             elif loop.set_gizmo_target(np.asarray(event.target.position, dtype=float)):
                 self._dragging_client = event.client_id
+                self.last_gizmo_update_s = time.perf_counter()
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
