@@ -77,7 +77,7 @@ def test_slerp_matches_scipy(seed, frac):
 
 
 def test_slerp_quarter_of_a_right_angle():
-    q = QuaternionStream.from_arrays("imu", [0.0, 1.0], Rotation.from_euler("z", [[0], [90]], degrees=True).as_quat(), 0.05)
+    q = QuaternionStream.from_arrays("imu", [0.0, 1.0], Rotation.from_euler("z", [[0], [90]], degrees=True).as_quat(), 2.0)
     assert np.allclose(q.rotation_at(0.25).as_euler("xyz", degrees=True), [0, 0, 22.5])
 
 
@@ -135,3 +135,8 @@ def test_could_have_left():
 def test_bad_age_is_refused():
     with pytest.raises(ValueError, match="torso_age_s"):
         conservative_capsules(0.0, [1.0, 0.0], float("nan"), BODY, policy=POLICY)
+
+
+def test_no_interpolation_across_a_gap():
+    s = VectorStream.from_arrays("torso", [0.0, 1.0], [[0.0, 0.0], [1.0, 1.0]], stale_after_s=0.1)
+    assert np.allclose(s.value_at(0.5), [0.0, 0.0])
