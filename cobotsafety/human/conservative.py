@@ -88,8 +88,8 @@ def conservative_capsules(
     if torso_age_s > policy.laser_stale_after_s:
         stale = True
         reasons.append(f"laser: legs not seen for {torso_age_s:.2f} s: last pose held, radius +{growth:.2f} m")
-    model = HumanCapsules(model.p0_b_m, model.p1_b_m, model.radius_m, model.names, t_s=t_s, ages_s=ages)
-    return grown(model, growth, stale=stale, reason="; ".join(reasons))
+    return HumanCapsules(model.p0_b_m, model.p1_b_m, model.radius_m + growth, model.names, t_s=t_s,
+                         stale=stale, reason="; ".join(reasons), ages_s=ages)
 
 
 def could_have_left(distance_scanner_torso_m: float, torso_age_s: float, max_range_m: float,

@@ -19,12 +19,12 @@ from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
 from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left
-from cobotsafety.sensors.imu import IMU_NAMES, base_orientation, calibrate
+from cobotsafety.sensors.imu import IMU_NAMES, calibrate
 from cobotsafety.sensors.laser_filters import TimeFilter
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.legs import detect_legs, torsos_from_legs
 from cobotsafety.sensors.scanner_pose import ScannerPose
-from cobotsafety.sensors.timing import QuaternionStream, VectorStream
+from cobotsafety.sensors.timing import QuaternionStream, VectorStream, rotations_at
 
 #: Paper 2 clips the ranges at 1400 mm.
 MAX_RANGE_M = 1.4
@@ -66,7 +66,8 @@ class HumanTracker:
         """Shape (2,) torso xy in the base frame [m] nearest the robot, or None (no legs)."""
         # Clip at the monitored range (paper: 1400 mm); a beam without a return this time
         # holds its previous filtered value (a dropout carries no information, it is not "far").
-        clipped = np.where(scan.valid, np.minimum(scan.ranges, self.max_range_m),
+        valid = scan.valid
+        clipped = np.where(valid, np.minimum(scan.ranges, self.max_range_m),
                            self.max_range_m if self._last is None else self._last)
         self._last = self._filter.update(clipped)  # eq. 1
         ranges = np.where(self._last < self.max_range_m, self._last, 0.0)  # 0 = no return
@@ -112,8 +113,8 @@ class HumanTracker:
         else:
             ages = {name: stream.age_s(t_s, min(t_s, np.inf if until_s is None else until_s)) for name, stream in self.imus.items()}
             if all(np.isfinite(a) for a in ages.values()):
-                q = np.array([self.imus[name].value_at(t_s, until_s) for name in IMU_NAMES])
-                r_b_imu = base_orientation(self._r_b_ref_all, q)  # eq. 6
+                r_ref_imu = rotations_at([self.imus[name] for name in IMU_NAMES], t_s, until_s)
+                r_b_imu = self._r_b_ref_all * r_ref_imu  # eq. 6 (base_orientation, batched)
             else:
                 r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
             ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}

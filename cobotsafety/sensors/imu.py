@@ -76,19 +76,15 @@ def arm_chain(
     if len(r_b_imu) != len(IMU_NAMES):
         raise ValueError(f"r_b_imu must hold {len(IMU_NAMES)} rotations ({IMU_NAMES}), got {len(r_b_imu)}")
     p0 = np.asarray(p_b_chest, dtype=float).reshape(3)
-    # One batched apply: both shoulder vectors in the chest frame, then the four limb vectors.
-    rotations = Rotation.concatenate([r_b_imu[0], r_b_imu[0], r_b_imu[1], r_b_imu[2], r_b_imu[3], r_b_imu[4]])
-    v_imu = np.array(
-        [
-            [-d1_m, d2_m, 0.0],
-            [-d1_m, -d2_m, 0.0],
-            [d3_m, 0.0, 0.0],
-            [d4_m, 0.0, 0.0],
-            [d3_m, 0.0, 0.0],
-            [d4_m, 0.0, 0.0],
-        ]
-    )
-    v_b = rotations.apply(v_imu)  # eq. 7
+    # One batched product: both shoulder vectors in the chest frame, then the four limbs.
+    m = r_b_imu.as_matrix()  # (5, 3, 3), columns = IMU axes in the base frame
+    v_b = np.empty((6, 3))
+    v_b[0] = m[0] @ [-d1_m, d2_m, 0.0]  # eq. 7, left shoulder (erratum 7: +d2)
+    v_b[1] = m[0] @ [-d1_m, -d2_m, 0.0]  # right shoulder: -d2
+    v_b[2] = d3_m * m[1, :, 0]  # [d3, 0, 0] in the upper-arm IMU frame
+    v_b[3] = d4_m * m[2, :, 0]
+    v_b[4] = d3_m * m[3, :, 0]
+    v_b[5] = d4_m * m[4, :, 0]
     shoulder_left = p0 + v_b[0]  # eq. 8
     shoulder_right = p0 + v_b[1]
     elbow_left = shoulder_left + v_b[2]  # eq. 11

@@ -137,8 +137,9 @@ class QuaternionStream(VectorStream):
 
     def _check(self, value: np.ndarray) -> str:
         problem = super()._check(value)
-        if not problem and abs(np.linalg.norm(value) - 1.0) > UNIT_QUATERNION_TOLERANCE:
-            return f"quaternion norm {np.linalg.norm(value):.6f} not within {UNIT_QUATERNION_TOLERANCE} of 1"
+        norm = float(np.sqrt(value @ value)) if not problem else 1.0
+        if abs(norm - 1.0) > UNIT_QUATERNION_TOLERANCE:
+            return f"quaternion norm {norm:.6f} not within {UNIT_QUATERNION_TOLERANCE} of 1"
         return problem
 
     def _normalised(self, value: np.ndarray) -> np.ndarray:
@@ -155,3 +156,16 @@ class QuaternionStream(VectorStream):
 
     def value_at(self, t_s: float, until_s: float | None = None) -> np.ndarray:
         return self.rotation_at(t_s, until_s).as_quat()
+
+
+def rotations_at(streams: list[QuaternionStream], t_s: float, until_s: float | None = None) -> Rotation:
+    """All streams' orientations at ``t_s`` as one batched ``Rotation`` (one slerp for all)."""
+    brackets = [stream._bracket(t_s, until_s) for stream in streams]
+    q0 = np.array([stream._v[i] for stream, (i, _, _) in zip(streams, brackets)])
+    r0 = Rotation.from_quat(q0)
+    frac = np.array([f for _, _, f in brackets])
+    if not frac.any():
+        return r0
+    q1 = np.array([stream._v[j] for stream, (_, j, _) in zip(streams, brackets)])
+    delta = (r0.inv() * Rotation.from_quat(q1)).as_rotvec()
+    return r0 * Rotation.from_rotvec(frac[:, None] * delta)
