@@ -131,3 +131,11 @@ def test_laser_only_bag_gives_one_capsule_human(shared_data):
         assert caps.names in ((), CAPSULE_NAMES_1)
         seen.add(caps.names)
     assert CAPSULE_NAMES_1 in seen
+
+
+def test_replay_refuses_a_partial_imu_set(recording):
+    from cobotsafety.errors import RecordingError
+
+    partial = dataclasses.replace(recording, calibration={"chest": recording.calibration["chest"]})
+    with pytest.raises(RecordingError, match="five"):
+        Replay(partial)

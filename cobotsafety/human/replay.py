@@ -17,10 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
+from cobotsafety.errors import RecordingError
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
 from cobotsafety.human.conservative import StalePolicy
 from cobotsafety.human.recording import Recording, load_recording
 from cobotsafety.human.tracker import MAX_RANGE_M, HumanTracker
+from cobotsafety.sensors.imu import IMU_NAMES
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.legs import estimate_background
 from cobotsafety.sensors.scanner_pose import ScannerPose
@@ -36,6 +38,9 @@ class Replay:
         geometry = recording.laser
         scans = [LaserScan(geometry["angle_min"], geometry["angle_increment"], geometry["range_min"],
                            geometry["range_max"], ranges) for ranges in recording.laser_ranges_m]
+        if recording.calibration and set(recording.calibration) != set(IMU_NAMES):
+            raise RecordingError(f"{recording.source or 'recording'}: IMUs {sorted(recording.calibration)} "
+                                 f"are not the five {IMU_NAMES} (or none)")
         background = estimate_background(scans) if use_background and len(scans) > 1 else None
         self.tracker = HumanTracker(recording.body, recording.scanner, recording.calibration or None,
                                     background, policy, max_range_m)
@@ -57,7 +62,6 @@ class Replay:
         ``scanner``: the scanner's pose in the robot base frame (the bag does not say).
         Raises ``RecordingError`` for an unreadable bag or one without scans.
         """
-        from cobotsafety.errors import RecordingError
         from cobotsafety.sensors.rosbag_io import read_laser_scans
 
         scans = read_laser_scans(Path(path), topic)
