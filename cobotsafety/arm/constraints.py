@@ -1,0 +1,141 @@
+"""Limitations of a 3D arm as joint-space measures; ``step`` maps them onto the command.
+
+Every constraint returns ``Measures``: signed distances ``d`` (m,) [m or rad], their joint-space
+gradients ``A`` (m, nv) (``d_dot = A @ qdot``), names, and whether each is angular. The step
+turns them into half-spaces on the Cartesian command through ``qdot = M v + c`` (the
+pseudo-inverse mapping and its null-space term): normal ``M^T a``, bound
+``approach_bound(d, ...) - a @ c``. This is paper 1's eq. 8 (``J_c J^-1``) for any point, with
+``J^+`` for redundant arms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from cobotsafety.arm.robot_state import RobotState
+
+
+class Measures(NamedTuple):
+    distance: np.ndarray
+    A: np.ndarray
+    names: tuple[str, ...]
+    angular: np.ndarray
+
+    @staticmethod
+    def empty(nv: int) -> "Measures":
+        return Measures(np.zeros(0), np.zeros((0, nv)), (), np.zeros(0, dtype=bool))
+
+    @staticmethod
+    def stack(parts: Sequence["Measures"], nv: int) -> "Measures":
+        parts = [p for p in parts if p.distance.size]
+        if not parts:
+            return Measures.empty(nv)
+        return Measures(np.concatenate([p.distance for p in parts]), np.vstack([p.A for p in parts]),
+                        tuple(n for p in parts for n in p.names), np.concatenate([p.angular for p in parts]))
+
+
+class ArmConstraint:
+    """Base class: ``measures(state, activation_m)`` returns the limitation's measures."""
+
+    name: str
+
+    def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        raise NotImplementedError
+
+    def distances(self, state: RobotState) -> np.ndarray:
+        return self.measures(state).distance
+
+
+@dataclass(frozen=True)
+class JointPositionLimits(ArmConstraint):
+    """Every joint with finite limits stays within them (row i of ``M``: joint i's rate)."""
+
+    name: str = "joint"
+
+    def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        pairs = state.limited_v
+        if pairs.size == 0:
+            return Measures.empty(state.nv)
+        iq, iv = pairs[:, 0], pairs[:, 1]
+        q = state.q[iq]
+        k = len(iq)
+        A = np.zeros((2 * k, state.nv))
+        A[np.arange(k), iv] = 1.0
+        A[k + np.arange(k), iv] = -1.0
+        d = np.concatenate([q - state.lower[iq], state.upper[iq] - q])
+        names = tuple(f"{joint} {side}" for side in ("lower", "upper") for joint in state.limited_names)
+        return Measures(d, A, names, np.ones(2 * k, dtype=bool))
+
+    def distances(self, state: RobotState) -> np.ndarray:
+        iq = state.limited_v[:, 0]
+        q = state.q[iq]
+        return np.concatenate([q - state.lower[iq], state.upper[iq] - q])
+
+
+@dataclass(frozen=True)
+class ReachLimits(ArmConstraint):
+    """The end-effector stays between ``inner_m`` and ``outer_m`` from the shoulder point."""
+
+    shoulder: tuple[float, float, float]
+    inner_m: float
+    outer_m: float
+    name: str = "reach"
+
+    def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        offset = state.p_world_ee - np.asarray(self.shoulder)
+        r = float(np.linalg.norm(offset))
+        u = offset / r if r > 1e-12 else np.array([0.0, 0.0, 1.0])
+        radial = u @ state.J_ee
+        return Measures(np.array([r - self.inner_m, self.outer_m - r]), np.vstack([radial, -radial]),
+                        (f"{self.name} inner", f"{self.name} extended"), np.zeros(2, dtype=bool))
+
+
+@dataclass(frozen=True)
+class TablePlane(ArmConstraint):
+    """No robot capsule goes below the plane ``z = height_m`` (table or floor)."""
+
+    height_m: float = 0.0
+    name: str = "table"
+    skip_capsules: int = 1
+    """The first capsules sit on the base and cannot reach the table: not checked."""
+
+    def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        p0, p1 = state.capsule_p0[self.skip_capsules:], state.capsule_p1[self.skip_capsules:]
+        low = np.where((p0[:, 2] <= p1[:, 2])[:, None], p0, p1)
+        d = low[:, 2] - state.capsule_radius[self.skip_capsules:] - self.height_m
+        keep = np.flatnonzero(d < activation_m)
+        A = np.array([state.point_jacobian(self.skip_capsules + i, low[i])[2] for i in keep]).reshape(-1, state.nv)
+        names = tuple(f"{self.name} ({state.capsules[self.skip_capsules + i].name})" for i in keep)
+        return Measures(d[keep], A, names, np.zeros(len(keep), dtype=bool))
+
+    def distances(self, state: RobotState) -> np.ndarray:
+        p0, p1 = state.capsule_p0[self.skip_capsules:], state.capsule_p1[self.skip_capsules:]
+        return np.minimum(p0[:, 2], p1[:, 2]) - state.capsule_radius[self.skip_capsules:] - self.height_m
+
+
+@dataclass(frozen=True)
+class ZoneConstraint(ArmConstraint):
+    """Every robot capsule stays out of ``zone`` (box, sphere, capsule or half-space), through
+    the Jacobian of the capsule's point closest to the zone (paper 1, section II.G)."""
+
+    zone: object
+    skip_capsules: int = 0
+
+    @property
+    def name(self) -> str:
+        return self.zone.name
+
+    def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        s = self.skip_capsules
+        d, p_robot, u = self.zone.capsule_distances(state.capsule_p0[s:], state.capsule_p1[s:], state.capsule_radius[s:])
+        keep = np.flatnonzero(d < activation_m)
+        A = np.array([u[i] @ state.point_jacobian(s + i, p_robot[i]) for i in keep]).reshape(-1, state.nv)
+        names = tuple(f"{self.zone.name} ({state.capsules[s + i].name})" for i in keep)
+        return Measures(d[keep], A, names, np.zeros(len(keep), dtype=bool))
+
+    def distances(self, state: RobotState) -> np.ndarray:
+        s = self.skip_capsules
+        return self.zone.capsule_distances(state.capsule_p0[s:], state.capsule_p1[s:], state.capsule_radius[s:])[0]

@@ -1,0 +1,104 @@
+"""Supported robots by name: one loader, one end-effector frame, one home pose each.
+
+``load_robot(name)`` returns a ``pinocchio.RobotWrapper``-like triple (model, collision model,
+spec). Gripper joints are locked (kinematic arm only). ``planar`` is paper 1's RR arm built
+as a pinocchio model, so it runs through the same path as the real arms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cobotsafety.errors import UnknownRobotError
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """How to load one robot and use it as a teleoperated arm."""
+
+    name: str
+    loader: str | None
+    """example-robot-data name (None: built here)."""
+    ee_frame: str
+    home_q: tuple[float, ...]
+    """Home configuration in the reduced model's ``nq`` coordinates."""
+    locked_joints: tuple[str, ...] = ()
+    limit_overrides: dict = field(default_factory=dict)
+    """Joint name -> (lower, upper) [rad] replacing the URDF's limits."""
+
+
+def _rubz(angle: float) -> tuple[float, float]:
+    return (np.cos(angle), np.sin(angle))
+
+
+ROBOTS: dict[str, RobotSpec] = {
+    "panda": RobotSpec("panda", "panda", "panda_hand_tcp",
+                       (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785),
+                       locked_joints=("panda_finger_joint1", "panda_finger_joint2")),
+    "ur5": RobotSpec("ur5", "ur5", "tool0", (0.0, -1.3, 1.6, -1.87, -1.57, 0.0),
+                     # +-2 pi on every joint lets the cable wrap; keep one turn either side.
+                     limit_overrides={n: (-np.pi, np.pi) for n in ("shoulder_pan_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")}),
+    "kinova": RobotSpec("kinova", "kinova", "j2s6s200_end_effector",
+                        (*_rubz(0.0), 2.9, 1.3, *_rubz(-2.07), 1.4, *_rubz(0.0))),
+    "z1": RobotSpec("z1", "z1", "link06", (0.0, 1.2, -1.0, -0.3, 0.0, 0.0),
+                    locked_joints=("jointGripper",)),
+    "xarm7": RobotSpec("xarm7", "xarm7", "link_eef", (0.0, -0.2, 0.0, 0.9, 0.0, 1.1, 0.0)),
+    "planar": RobotSpec("planar", None, "ee", (1.7686, 2.4554)),
+}
+
+DEFAULT_ROBOT = "panda"
+
+
+def robot_spec(name: str) -> RobotSpec:
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise UnknownRobotError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}") from None
+
+
+def _planar_model():
+    """Paper 1's RR arm (two 0.30 m links, revolute about z) as a pinocchio model."""
+    import pinocchio as pin
+
+    from cobotsafety.planar.arm import PlanarArm
+
+    arm = PlanarArm()
+    model = pin.Model()
+    j1 = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "joint1")
+    j2 = model.addJoint(j1, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([arm.link_1_m, 0, 0])), "joint2")
+    model.addFrame(pin.Frame("ee", j2, 0, pin.SE3(np.eye(3), np.array([arm.link_2_m, 0, 0])), pin.FrameType.OP_FRAME))
+    model.lowerPositionLimit = np.array([arm.theta_1_min_rad, arm.theta_2_min_rad])
+    model.upperPositionLimit = np.array([arm.theta_1_max_rad, arm.theta_2_max_rad])
+    model.velocityLimit = np.array([2.0, 2.0])
+    inertia = pin.Inertia.FromCylinder(1.0, 0.03, arm.link_1_m)
+    for j in (j1, j2):
+        model.appendBodyToJoint(j, inertia, pin.SE3.Identity())
+    return model, pin.GeometryModel()
+
+
+def load_robot(name: str = DEFAULT_ROBOT):
+    """Return ``(model, collision_model, spec)`` with gripper joints locked and overrides applied."""
+    import pinocchio as pin
+
+    spec = robot_spec(name)
+    if spec.loader is None:
+        model, collision = _planar_model()
+    else:
+        import example_robot_data
+
+        robot = example_robot_data.load(spec.loader)
+        model, collision = robot.model, robot.collision_model
+        if spec.locked_joints:
+            ids = [model.getJointId(j) for j in spec.locked_joints]
+            q_lock = pin.neutral(model)
+            model, collision = pin.buildReducedModel(model, collision, ids, q_lock)
+    for joint, (lower, upper) in spec.limit_overrides.items():
+        j = model.getJointId(joint)
+        idx = model.idx_qs[j]
+        model.lowerPositionLimit[idx] = lower
+        model.upperPositionLimit[idx] = upper
+    if not model.existFrame(spec.ee_frame):
+        raise UnknownRobotError(f"robot {name!r} has no frame {spec.ee_frame!r}")
+    return model, collision, spec

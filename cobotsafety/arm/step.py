@@ -1,0 +1,222 @@
+"""One 3D arm control step: map, filter, integrate, check.
+
+The command is the end-effector's translational velocity ``v`` [m/s] (3D; 2D for the planar
+arm). Joint rates are ``qdot = M v + c``:
+
+* ``M = J^+``, the damped pseudo-inverse of the translation Jacobian (paper 2, eq. 16), its
+  damping growing smoothly as the manipulability ``w = sqrt(det(J J^T))`` falls below
+  ``w_threshold`` — near a singularity the command shrinks smoothly instead of blowing up, and
+  motion away from it stays available (the singularity safeguard);
+* ``c = (I - J^+ J) qdot_secondary``: a secondary task in the translation's null space holds
+  the home orientation and, on redundant arms, pulls joints toward the middle of their range.
+  Orientation is a secondary task (not a 6D twist) because the user's gizmo commands a point:
+  keeping the command 3D keeps every constraint a half-space on what the user drags.
+
+Each limitation's measure ``(d, a)`` (``d_dot = a @ qdot``) becomes the half-space
+``(M^T a) . v >= approach_bound(d, dt, ...) - a . c`` on the command; joint velocity limits
+``|qdot_i| <= qdot_max_i`` become ``+-(M^T e_i) . v >= -qdot_max_i -+ c_i``. The command is
+projected (``cobotsafety.slide``), integrated with ``pin.integrate``, and the new state is
+checked: a step that crossed a limitation (first-order bounds on curved limits) is scaled down
+by bisection; zero motion is always admissible.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from cobotsafety.arm.constraints import ArmConstraint, Measures
+from cobotsafety.arm.robot_state import RobotState
+from cobotsafety.constraint import HalfSpaces
+from cobotsafety.filter import project
+
+logger = logging.getLogger(__name__)
+
+CROSSING_TOLERANCE_M = 1e-9
+
+
+@dataclass(frozen=True)
+class ArmParams:
+    """Filter and mapping settings (units in the names)."""
+
+    max_speed_m_s: float = 0.5
+    damping_width_m: float = 0.02
+    damping_width_rad: float = 0.1
+    activation_m: float = 0.15
+    w_threshold: float = 0.01
+    """Manipulability below which the pseudo-inverse is damped."""
+    damping_max: float = 0.05
+    """Damping lambda [m] at zero manipulability."""
+    orientation_gain_per_s: float = 2.0
+    centering_gain_per_s: float = 0.2
+    velocity_limit_scale: float = 1.0
+    buffer_m: float = 1e-3
+    """The filter keeps this much clearance [m] (``buffer_rad`` for joints), so second-order
+    motion while sliding (curved limits, rotating links) never reaches the limit itself."""
+    buffer_rad: float = 1e-3
+    recovery_gain_per_s: float = 1.0
+    """Inside the buffer, the command drifts back out at this rate (times the intrusion)."""
+    reactive_stiffness_per_s: float = 30.0
+    reactive_zone_m: float = 0.05
+
+
+@dataclass
+class ArmStepInfo:
+    v_desired: np.ndarray
+    v_commanded: np.ndarray
+    qdot: np.ndarray
+    binding: tuple[str, ...]
+    stopped: bool
+    net_scale: float
+    halfspaces: HalfSpaces = field(repr=False, default=None)
+
+
+def task_axes(state: RobotState) -> np.ndarray:
+    """Translation axes the arm can command: x, y for the planar arm, x, y, z otherwise."""
+    return np.array([0, 1]) if state.name == "planar" else np.array([0, 1, 2])
+
+
+def mapping(state: RobotState, params: ArmParams, R_world_ee_ref: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(M (nv, k), c (nv,))`` with ``qdot = M v + c``."""
+    J = state.J_ee[task_axes(state)]
+    JJt = J @ J.T
+    w = float(np.sqrt(max(np.linalg.det(JJt), 0.0)))
+    lam2 = params.damping_max**2 * (1.0 - w / params.w_threshold) ** 2 if w < params.w_threshold else 0.0
+    M = J.T @ np.linalg.inv(JJt + lam2 * np.eye(J.shape[0]))
+    N = np.eye(state.nv) - M @ J
+    secondary = np.zeros(state.nv)
+    if R_world_ee_ref is not None and state.name != "planar":
+        error = pin.log3(R_world_ee_ref @ state.R_world_ee.T)  # world-frame rotation error
+        JwN = state.J_ee_angular @ N
+        # Damped least squares: near a singularity the orientation task gives way smoothly.
+        secondary += JwN.T @ np.linalg.solve(JwN @ JwN.T + 0.01 * np.eye(3), params.orientation_gain_per_s * error)
+    if state.limited_v.size and params.centering_gain_per_s > 0:
+        iq, iv = state.limited_v[:, 0], state.limited_v[:, 1]
+        middle = 0.5 * (state.lower[iq] + state.upper[iq])
+        span = state.upper[iq] - state.lower[iq]
+        secondary[iv] -= params.centering_gain_per_s * (state.q[iq] - middle) / np.maximum(span, 1e-6)
+    c = N @ secondary
+    # The secondary task never takes more than half of any joint's speed limit.
+    ratio = float(np.max(np.abs(c) / (0.5 * state.model.velocityLimit)))
+    return M, c / ratio if ratio > 1.0 else c
+
+
+def all_measures(state: RobotState, constraints: list[ArmConstraint], activation_m: float) -> Measures:
+    return Measures.stack([c.measures(state, activation_m) for c in constraints], state.nv)
+
+
+def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np.ndarray,
+                     v_desired: np.ndarray, dt_s: float, params: ArmParams, hard: bool = False) -> HalfSpaces:
+    """Half-spaces on the command from the measures and the joint velocity limits."""
+    normals = measures.A @ M
+    offset = measures.A @ c
+    rate_desired = normals @ v_desired + offset
+    width = np.where(measures.angular, params.damping_width_rad, params.damping_width_m) * (not hard)
+    buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
+    d = measures.distance - buffer
+    # Outside the buffer: approach at most the remaining gap in one step; inside it: drift out
+    # gently (never deeper), which also holds the recovery rule for a violated limit.
+    bound = np.where(d <= 0.0, -params.recovery_gain_per_s * d, -d / dt_s)
+    damped = (width > 0) & (d > 0) & (d < width) & (rate_desired < 0)
+    bound = np.where(damped, np.maximum(bound, d / np.where(width > 0, width, 1.0) * rate_desired), bound)
+    bound = bound - offset
+    # Joint velocity limits.
+    vmax = state.model.velocityLimit * params.velocity_limit_scale
+    vel_normals = np.vstack([M, -M])
+    vel_bounds = np.concatenate([-vmax - c, -vmax + c])
+    vel_names = tuple(f"velocity {i}" for i in range(2 * state.nv))
+    all_normals = np.vstack([normals, vel_normals])
+    all_bounds = np.concatenate([bound, vel_bounds])
+    names = measures.names + vel_names
+    # Keep the rows that can bind at the maximum speed.
+    scale = np.linalg.norm(all_normals, axis=1)
+    keep = all_bounds > -2.0 * params.max_speed_m_s * scale - 1e-12
+    return HalfSpaces(all_normals[keep], all_bounds[keep], tuple(n for n, k in zip(names, keep) if k))
+
+
+def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
+    return bool(np.all(after >= np.minimum(before, 0.0) - CROSSING_TOLERANCE_M))
+
+
+def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
+         params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
+         last_qdot: np.ndarray | None = None) -> ArmStepInfo:
+    """Advance ``state`` (in place) by one period; ``state.update()`` must be current."""
+    axes = task_axes(state)
+    v = np.asarray(v_desired, dtype=float).reshape(-1)
+    if v.shape != (3,):
+        raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
+    if not dt_s > 0:
+        raise ValueError(f"dt_s must be positive, got {dt_s}")
+    if not np.all(np.isfinite(v)):
+        logger.warning("desired velocity %s is not finite; commanding zero", v)
+        v = np.zeros(3)
+    speed = np.linalg.norm(v)
+    if speed > params.max_speed_m_s:
+        v = v * params.max_speed_m_s / speed
+    vk = v[axes]
+    M, c = mapping(state, params, R_world_ee_ref)
+    measures = all_measures(state, constraints, params.activation_m)
+    binding: tuple[str, ...] = ()
+    stopped = False
+    if method == "anticipative":
+        hs = build_halfspaces(state, measures, M, c, vk, dt_s, params)
+        result = project(vk, hs)
+        command, binding, stopped = result.v_filtered, result.binding, result.stopped
+        qdot = M @ command + (0.0 if stopped else c)
+    elif method == "stop":
+        hs = build_halfspaces(state, measures, M, c, vk, dt_s, params, hard=True)
+        violated = hs.normals @ vk < hs.bounds - 1e-12
+        binding = tuple(n for n, bad in zip(hs.names, violated) if bad)
+        stopped = bool(binding)
+        command = np.zeros_like(vk) if stopped else vk
+        qdot = np.zeros(state.nv) if stopped else M @ vk + c
+    elif method in ("reactive", "off"):
+        hs = build_halfspaces(state, measures, M, c, vk, dt_s, params, hard=True)
+        command = vk.copy()
+        if method == "reactive":
+            for a_row, d, name in zip(measures.A, measures.distance, measures.names):
+                if d < params.reactive_zone_m:
+                    n = a_row @ M
+                    norm2 = float(n @ n)
+                    if norm2 > 1e-12:
+                        command = command + params.reactive_stiffness_per_s * (params.reactive_zone_m - d) * n / norm2
+                        binding += (name,)
+        qdot = M @ command + c
+        vmax = state.model.velocityLimit
+        ratio = float(np.max(np.abs(qdot) / vmax))
+        if ratio > 1.0:
+            qdot = qdot / ratio
+    else:
+        raise ValueError(f"method must be one of anticipative, stop, reactive, off; got {method!r}")
+
+    q_before = state.q
+    net_scale = 1.0
+    if method != "off":
+        before = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
+        state.q = state.integrate(qdot, dt_s)
+        state.update()
+        after = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
+        if not _admissible(before, after):
+            low, high = 0.0, 1.0
+            for _ in range(25):
+                mid = 0.5 * (low + high)
+                state.q = pin.integrate(state.model, q_before, qdot * mid * dt_s)
+                state.update()
+                after = np.concatenate([con.distances(state) for con in constraints])
+                if _admissible(before, after):
+                    low = mid
+                else:
+                    high = mid
+            net_scale = low
+            state.q = pin.integrate(state.model, q_before, qdot * low * dt_s)
+            state.update()
+    else:
+        state.q = state.integrate(qdot, dt_s)
+        state.update()
+    command_full = np.zeros(3)
+    command_full[axes] = command * net_scale
+    return ArmStepInfo(v, command_full, qdot * net_scale, binding, stopped, net_scale, hs)

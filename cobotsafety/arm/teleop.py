@@ -1,0 +1,87 @@
+"""``ArmTeleop``: a pinocchio arm behind the ``cobotsafety.teleop.Teleoperated`` protocol."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
+from cobotsafety.arm.robot_state import RobotState
+from cobotsafety.arm.robots import DEFAULT_ROBOT
+from cobotsafety.arm.step import ArmParams, step
+from cobotsafety.arm.zones import BoxZone, HalfSpaceZone, SphereZone
+from cobotsafety.teleop import METHODS, StepReport
+
+
+def default_zones(state: RobotState) -> list:
+    """A demo cell around the home pose: a box and a sphere to slide along, a wall behind."""
+    p = state.p_world_ee
+    return [
+        BoxZone("box zone", (p[0] + 0.15, p[1] - 0.25, 0.10), (0.08, 0.08, 0.10)),
+        SphereZone("sphere zone", (p[0], p[1] + 0.30, p[2]), 0.08),
+        HalfSpaceZone("wall", (-0.45, 0.0, 0.0), (-1.0, 0.0, 0.0)),
+    ]
+
+
+def default_constraints(state: RobotState, zones: list | None) -> list[ArmConstraint]:
+    """Joint limits, reach, the table (z = 0) for everything but the base links, and the zones."""
+    constraints: list[ArmConstraint] = [JointPositionLimits()]
+    if state.name != "planar":
+        reach = float(np.linalg.norm(state.p_world_ee - state.capsule_p0[0]))
+        constraints += [
+            ReachLimits(tuple(state.capsule_p0[0]), inner_m=0.15, outer_m=max(0.5, 1.4 * reach)),
+            TablePlane(0.0, skip_capsules=2),
+        ]
+    for zone in zones if zones is not None else default_zones(state):
+        constraints.append(ZoneConstraint(zone, skip_capsules=1))
+    return constraints
+
+
+class ArmTeleop:
+    """A 3D arm driven by the end-effector's translational velocity [m/s].
+
+    ``extra_constraints`` (e.g. human capsules as moving zones) are added to the defaults;
+    ``zones`` replaces the default protection zones.
+    """
+
+    dim = 3
+
+    def __init__(self, robot: str = DEFAULT_ROBOT, zones: list | None = None,
+                 extra_constraints: list[ArmConstraint] | None = None, params: ArmParams | None = None):
+        self.state = RobotState(robot)
+        self.params = params or ArmParams()
+        self.zones = zones if zones is not None else default_zones(self.state)
+        self.extra_constraints = list(extra_constraints or [])
+        self.R_world_ee_ref = self.state.R_world_ee.copy()
+        self.last_qdot = np.zeros(self.state.nv)
+
+    @property
+    def constraints(self) -> list[ArmConstraint]:
+        return default_constraints(self.state, self.zones) + self.extra_constraints
+
+    def reset(self) -> None:
+        self.state.q = np.array(self.state.spec.home_q, dtype=float)
+        self.state.update()
+        self.last_qdot = np.zeros(self.state.nv)
+
+    @property
+    def p_base_ee_m(self) -> np.ndarray:
+        return self.state.p_world_ee.copy()
+
+    def step(self, v_desired_m_s: np.ndarray, dt_s: float, method: str = "anticipative") -> StepReport:
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        v = np.asarray(v_desired_m_s, dtype=float).reshape(-1)
+        if v.shape != (3,):
+            raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
+        before = self.p_base_ee_m
+        info = step(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot)
+        self.last_qdot = info.qdot
+        return StepReport(
+            v_desired_m_s=info.v_desired,
+            v_commanded_m_s=info.v_commanded,
+            v_executed_m_s=(self.state.p_world_ee - before) / dt_s,
+            p_base_ee_m=self.p_base_ee_m,
+            binding=info.binding,
+            stopped=info.stopped,
+            extras={"net_scale": info.net_scale},
+        )
