@@ -33,6 +33,16 @@ ZONE_COLOUR = (230, 120, 40)
 LIMIT_COLOUR = (110, 110, 120)
 
 
+CAPSULE_RADIUS_M = 2.5 * LINK_RADIUS_M
+
+
+def planar_capsules(p_base_elbow_m: np.ndarray, p_base_ee_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The two links as capsules ``(p0 (2, 3), p1 (2, 3), radius (2,))`` [m], drawn translucent."""
+    p0 = np.array([np.zeros(3), p_base_elbow_m], dtype=float)
+    p1 = np.array([p_base_elbow_m, p_base_ee_m], dtype=float)
+    return p0, p1, np.full(2, CAPSULE_RADIUS_M)
+
+
 def limitation_outline(limitation: PlanarLimitation, teleop: PlanarTeleop) -> np.ndarray | None:
     """Shape (m, 2, 3) segments drawing ``limitation`` in the plane, or None (not drawable)."""
     arm = teleop.scene.arm
@@ -72,7 +82,7 @@ class PlanarView:
         self.teleop = teleop
         scene = server.scene
         scene.set_up_direction("+z")
-        server.initial_camera.position = (0.0, -0.05, 1.6)
+        server.initial_camera.position = (0.0, -0.05, 1.9)
         server.initial_camera.look_at = (0.0, 0.1, 0.0)
         self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
                                    position=(0.0, 0.0, -0.002))
@@ -84,7 +94,7 @@ class PlanarView:
             for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
         ]
         self.capsules = [
-            scene.add_mesh_simple(f"{ROOT}/capsule_{i}", *_arrays(draw.capsule_mesh(length, 2.5 * LINK_RADIUS_M)),
+            scene.add_mesh_simple(f"{ROOT}/capsule_{i}", *_arrays(draw.capsule_mesh(length, CAPSULE_RADIUS_M)),
                                   color=ARM_COLOUR, opacity=0.35)
             for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
         ]

@@ -21,7 +21,10 @@ from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
 from cobotsafety.app.panel import PLANAR_SCENES, make_panel, status_text
 from cobotsafety.app.plots import PlotHistory, Plots
-from cobotsafety.errors import CobotSafetyError, UnknownRobotError
+from cobotsafety.app.replay_control import ReplayControl, bundled_recording
+from cobotsafety.app.scene_human import HumanView, minimum_distance
+from cobotsafety.app.scene_planar import planar_capsules
+from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotError
 
 logger = logging.getLogger(__name__)
 
@@ -85,8 +88,17 @@ class DemoApp:
             "/gizmo", scale=0.15, line_width=4.0, active_axes=(True, True, False), disable_rotations=True,
             depth_test=False,
             position=tuple(robot.p_base_ee_m))
-        self.panel = make_panel(self.server, supported_robots(), PLANAR, robot.dim, (), self.loop.gizmo,
-                                ssm_available=False)
+        self.replay = ReplayControl()
+        self.recordings: dict[str, Path] = {}
+        first = Path(config.replay) if config.replay is not None else bundled_recording()
+        message = self.replay.load(first)
+        if message:  # a bad --replay is refused at start-up with the loader's message
+            raise RecordingError(message)
+        self.recordings[self.replay.name] = first
+        self.panel = make_panel(self.server, supported_robots(), PLANAR, robot.dim, tuple(self.recordings),
+                                self.loop.gizmo, ssm_available=False)
+        self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
+        self.human = HumanView(self.server)
         self.panel.replay_message.content = "Human replay: waiting for `cobotsafety.human` (issue 4)."
         self.zones = PlanarZoneEditor(self.server, self.loop, self._redraw)
         self.plots = Plots(self.server)
@@ -145,12 +157,69 @@ class DemoApp:
         for slider in (panel.dead_band_m, panel.gain_per_s, panel.max_speed_m_s):
             slider.on_update(settings_changed)
 
+        self._wire_replay()
+
         @panel.jog.on_click
         def _(_event) -> None:
             try:
                 loop.jog(jog_module.jog_velocity(panel.jog.value, panel.jog_speed_m_s.value, loop.robot.dim))
             except CobotSafetyError as error:
                 logger.warning("jog refused: %s", error)
+
+    def _wire_replay(self) -> None:
+        panel, replay = self.panel, self.replay
+
+        @panel.play.on_click
+        def _(_event) -> None:
+            replay.playing = not replay.playing
+            panel.play.label = "Pause" if replay.playing else "Play"
+
+        panel.play.label = "Pause" if replay.playing else "Play"
+
+        @panel.seek_s.on_update
+        def _(_event) -> None:
+            if abs(panel.seek_s.value - replay.time_s) > 0.25:  # a user's seek, not our own refresh
+                replay.seek(panel.seek_s.value)
+
+        @panel.speed.on_update
+        def _(_event) -> None:
+            replay.speed = float(panel.speed.value)
+
+        @panel.loop.on_update
+        def _(_event) -> None:
+            replay.loop = bool(panel.loop.value)
+
+        @panel.recording.on_update
+        def _(_event) -> None:
+            path = self.recordings.get(panel.recording.value)
+            if path is not None and panel.recording.value != replay.name:
+                self.show_replay_message(replay.load(path, panel.recording.value))
+
+        @panel.upload.on_upload
+        def _(_event) -> None:
+            upload = panel.upload.value
+            self.load_uploaded(upload.name, upload.content)
+
+    def load_uploaded(self, name: str, content: bytes) -> str:
+        """Save an uploaded recording or bag and switch to it; returns the refusal or ""."""
+        import tempfile  # noqa: PLC0415
+
+        folder = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-"))
+        path = folder / Path(name).name
+        path.write_bytes(content)
+        message = self.replay.load(path, path.name)
+        if not message:
+            self.recordings[path.name] = path
+            self.panel.recording.options = tuple(self.recordings)
+            self.panel.recording.value = path.name
+            self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
+        self.show_replay_message(message)
+        return message
+
+    def show_replay_message(self, message: str) -> None:
+        self.panel.replay_message.content = f"**{message}**" if message else f"playing {self.replay.name}"
+        if message:
+            logger.warning("%s", message)
 
     # ---- actions ------------------------------------------------------------------------
     def set_planar_scene(self, label: str) -> None:
@@ -173,16 +242,22 @@ class DemoApp:
         self.view.redraw_limitations()
 
     # ---- render loop --------------------------------------------------------------------
-    def render_once(self) -> None:
+    def render_once(self, wall_dt_s: float = 0.0) -> None:
         snapshot = self.loop.snapshot()
         elbow = np.asarray(self.loop.read(lambda robot: robot.p_base_elbow_m), dtype=float)
+        self.replay.advance(wall_dt_s)
+        human = self.replay.capsules()
+        closest = None if human is None else minimum_distance(*planar_capsules(elbow, snapshot.p_base_ee_m), human)
         with self.server.atomic():
             self.view.update(snapshot, elbow)
+            self.human.update(human, closest)
             if not snapshot.dragging and self._dragging_client is None:
                 if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
                     self.gizmo.position = tuple(snapshot.p_base_ee_m)
         report = snapshot.report
         min_distance = report.min_distance_m if report is not None else None
+        if min_distance is None and closest is not None:
+            min_distance = closest[0]
         self.history.add(snapshot, min_distance)
         self.frames += 1
         if self.frames % 6 == 0:  # status and plots at ~5 Hz
@@ -192,17 +267,21 @@ class DemoApp:
             if text != self.panel.status.content:
                 self.panel.status.content = text
             self.plots.push(self.history)
+            if self.replay.playing:
+                self.panel.seek_s.value = round(self.replay.time_s, 2)
 
     def _render_run(self) -> None:
         period = 1.0 / self.config.render_hz
+        last = time.perf_counter()
         while not self._stop.is_set():
             start = time.perf_counter()
             try:
-                self.render_once()
+                self.render_once(start - last)
             except Exception as error:  # noqa: BLE001 - a rendering glitch must not stop the demo
                 if repr(error) != self._last_render_error:  # log each distinct failure once
                     logger.exception("render frame failed")
                     self._last_render_error = repr(error)
+            last = start
             self._stop.wait(max(0.0, period - (time.perf_counter() - start)))
 
     # ---- lifecycle ----------------------------------------------------------------------

@@ -175,3 +175,31 @@ def test_two_tabs_share_one_robot_and_a_disconnect_keeps_the_loop(browser, app):
     np.testing.assert_allclose(app.loop.snapshot().p_base_ee_m, ee, atol=1e-6)  # holds still
     second.get_by_text(f"EE x={ee[0] * 1e3:.1f}").wait_for()  # the other tab saw the motion
     second.close()
+
+
+def test_replay_plays_and_the_distance_readout_changes(browser, app):
+    import re
+
+    page = open_page(browser, app)
+    reset(page, app, "anticipative")
+    page.get_by_text("Replay").first.click()  # open the folder
+    play = page.get_by_role("button", name=re.compile("^(Play|Pause)$"))
+    if play.inner_text().strip() == "Play":
+        play.click()
+    app.replay.seek(4.5)  # the recorded person walks in from about 4 s
+    status = page.get_by_text("EE x=")
+    readouts = set()
+    deadline = time.monotonic() + 60
+    while len(readouts) < 3 and time.monotonic() < deadline:
+        found = re.search(r"min distance (\d+) mm", status.inner_text())
+        if found:
+            readouts.add(int(found.group(1)))
+        time.sleep(0.3)
+    assert len(readouts) >= 3, readouts  # the person moves, the readout follows
+    assert min(readouts) < 2000
+    page.get_by_role("button", name="Pause").click()  # the button toggles playback
+    deadline = time.monotonic() + 30
+    while app.replay.playing and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not app.replay.playing
+    page.close()

@@ -1,0 +1,63 @@
+"""Scene helpers: quaternions, capsule meshes, polylines, distance colours, jog labels."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from cobotsafety.app import draw
+from cobotsafety.app.jog import jog_velocity
+from cobotsafety.app.panel import status_text
+from cobotsafety.app.scene_planar import limitation_outline
+from cobotsafety.errors import CobotSafetyError
+from cobotsafety.planar.limitations import JointLimit
+from cobotsafety.planar.teleop import PlanarTeleop
+
+
+@pytest.mark.parametrize("direction", [[1, 0, 0], [0, -1, 0], [0.3, 0.4, -0.5], [0, 0, -1], [0, 0, 1]])
+def test_wxyz_z_to_turns_z_onto_direction(direction):
+    w, x, y, z = draw.wxyz_z_to(np.array(direction, float))
+    turned = Rotation.from_quat([x, y, z, w]).apply([0, 0, 1])
+    np.testing.assert_allclose(turned, np.array(direction) / np.linalg.norm(direction), atol=1e-9)
+
+
+def test_capsule_mesh_spans_the_segment():
+    mesh = draw.capsule_mesh(0.3, 0.02)
+    np.testing.assert_allclose(mesh.bounds, [[-0.02, -0.02, -0.02], [0.02, 0.02, 0.32]], atol=1e-9)
+
+
+def test_closed_polyline_of_a_square():
+    segments = draw.polyline_segments(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float))
+    assert segments.shape == (4, 2, 3)
+    np.testing.assert_array_equal(segments[-1], [[0, 1, 0], [0, 0, 0]])
+
+
+def test_distance_colours():
+    assert draw.distance_colour(1.0) == draw.GREEN
+    assert draw.distance_colour(0.1) == draw.RED
+    assert draw.distance_colour(0.35) == draw.AMBER  # halfway between red (0.2) and amber (0.5)
+    assert draw.distance_colour(None) == draw.GREY
+    assert draw.distance_colour(float("nan")) == draw.GREY
+
+
+def test_jog_labels():
+    np.testing.assert_array_equal(jog_velocity("-y", 0.05, 2), [0.0, -0.05])
+    np.testing.assert_array_equal(jog_velocity("+z", 0.1, 3), [0.0, 0.0, 0.1])
+    for bad in ("+z", "x", "*x", "+xx"):
+        with pytest.raises(CobotSafetyError, match="jog label"):
+            jog_velocity(bad, 0.05, 2)
+
+
+def test_joint_2_limit_drawn_at_the_reach_of_its_angles():
+    teleop = PlanarTeleop()
+    segments = limitation_outline(JointLimit("B", 2, 0.25, 2.6), teleop)
+    radii = np.linalg.norm(segments[:, 0, :2], axis=1)
+    # L1 = L2 = 0.3: r(theta2) = sqrt(0.18 + 0.18 cos theta2)
+    expected = sorted({round(np.sqrt(0.18 + 0.18 * np.cos(a)), 9) for a in (0.25, 2.6)})
+    np.testing.assert_allclose(sorted(set(np.round(radii, 9))), expected)
+
+
+def test_status_text_names_mode_rate_distance_and_constraints():
+    text = status_text("stop", 499.6, 0.2341, ("B joint 2 upper", "B joint 2 upper", "F bar"),
+                       np.array([-0.2, 0.03, 0.0]), True)
+    assert "**stop**" in text and "500 Hz" in text and "234 mm" in text
+    assert "B joint 2 upper, F bar" in text and "stopped" in text and "EE x=-200.0 y=30.0" in text
