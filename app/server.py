@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,12 +24,11 @@ from cobotsafety.app.panel import PLANAR_SCENES, make_panel, status_text
 from cobotsafety.app.plots import PlotHistory, Plots
 from cobotsafety.app.replay_control import ReplayControl, bundled_recording
 from cobotsafety.app.scene_human import HumanView, minimum_distance
-from cobotsafety.app.scene_planar import planar_capsules
-from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotError
+from cobotsafety.app.scenes import PLANAR, make_scene
+from cobotsafety.app.zones_editor import ZoneEditor
+from cobotsafety.errors import CobotSafetyError, RecordingError
 
 logger = logging.getLogger(__name__)
-
-PLANAR = "planar"
 
 
 @dataclass(frozen=True)
@@ -36,9 +36,9 @@ class DemoConfig:
     scene: str = "planar"
     """``planar`` (paper 1's RR arm) or ``arm`` (a pinocchio arm)."""
     robot: str | None = None
-    """Arm name for ``scene="arm"``; None = the arm package's default."""
+    """Arm name for ``scene="arm"``; None = the arm package's default (panda)."""
     replay: Path | None = None
-    """Human recording (.jsonl.gz or ROS bag); None = the bundled one when available."""
+    """Human recording (.jsonl.gz) or ROS bag; None = the bundled recording."""
     host: str = "127.0.0.1"
     port: int = 8080
     rate_hz: float = 500.0
@@ -55,75 +55,61 @@ def supported_robots() -> tuple[str, ...]:
     return (PLANAR, *(name for name in ROBOTS if name != PLANAR))
 
 
-def make_planar(scene_label: str = PLANAR_SCENES[0]):
-    from cobotsafety.planar.scenarios import demo_scene, fig9_scene  # noqa: PLC0415
-    from cobotsafety.planar.teleop import PlanarTeleop  # noqa: PLC0415
-
-    if scene_label == PLANAR_SCENES[1]:
-        return PlanarTeleop(fig9_scene("a"))
-    if scene_label == PLANAR_SCENES[2]:
-        return PlanarTeleop(fig9_scene("b"))
-    return PlanarTeleop(demo_scene())
-
-
 class DemoApp:
     """The running demo. ``start()`` then ``url``; ``stop()`` shuts everything down."""
 
     def __init__(self, config: DemoConfig = DemoConfig()):
-        if config.scene != "planar":
-            if config.scene != "arm":
-                raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
-            raise UnknownRobotError(
-                f"the 3D arm scene needs cobotsafety.arm, which is not available; known robots: {supported_robots()}")
+        if config.scene not in ("planar", "arm"):
+            raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
+        robot_name = PLANAR if config.scene == "planar" else (config.robot or "panda")
         self.config = config
-        self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
-        self.server.gui.configure_theme(control_width="large")
-        robot = make_planar()
-        self.loop = ControlLoop(robot, LoopSettings(rate_hz=config.rate_hz))
-        from cobotsafety.app.scene_planar import PlanarView  # noqa: PLC0415
-        from cobotsafety.app.zones_editor import PlanarZoneEditor  # noqa: PLC0415
-
-        self.view = PlanarView(self.server, robot)
-        self.gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.15, line_width=4.0, active_axes=(True, True, False), disable_rotations=True,
-            depth_test=False,
-            position=tuple(robot.p_base_ee_m))
         self.replay = ReplayControl()
-        self.recordings: dict[str, Path] = {}
         first = Path(config.replay) if config.replay is not None else bundled_recording()
         message = self.replay.load(first)
         if message:  # a bad --replay is refused at start-up with the loader's message
             raise RecordingError(message)
-        self.recordings[self.replay.name] = first
-        self.panel = make_panel(self.server, supported_robots(), PLANAR, robot.dim, tuple(self.recordings),
+        self.recordings: dict[str, Path] = {self.replay.name: first}
+        self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
+        self.server.gui.configure_theme(control_width="large")
+        self.scene = make_scene(self.server, robot_name)
+        self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz))
+        self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
                                 self.loop.gizmo, ssm_available=False)
         self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
         self.human = HumanView(self.server)
-        self.panel.replay_message.content = "Human replay: waiting for `cobotsafety.human` (issue 4)."
-        self.zones = PlanarZoneEditor(self.server, self.loop, self._redraw)
+        self.zones = ZoneEditor(self.server, self.loop, lambda: self.scene)
         self.plots = Plots(self.server)
         self.history = PlotHistory()
         self._dragging_client: int | None = None
         self._render_thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._switching = threading.Lock()
         self.frames = 0
         self.last_gizmo_update_s = 0.0
         """``time.perf_counter()`` of the last accepted gizmo update (for the latency bench)."""
         self._last_render_error = ""
+        self.gizmo = self._make_gizmo()
         self._wire()
 
     # ---- wiring --------------------------------------------------------------------------
-    def _wire(self) -> None:
-        panel, loop = self.panel, self.loop
+    def _make_gizmo(self) -> viser.TransformControlsHandle:
+        gizmo = self.server.scene.add_transform_controls(
+            "/gizmo", scale=0.15, line_width=4.0, active_axes=self.scene.gizmo_axes, disable_rotations=True,
+            depth_test=False, position=tuple(self.scene.robot.p_base_ee_m))
 
-        @self.gizmo.on_update
+        @gizmo.on_update
         def _(event: viser.TransformControlsEvent) -> None:
             if event.phase == "end":
                 self._dragging_client = None
-                loop.release_gizmo()
-            elif loop.set_gizmo_target(np.asarray(event.target.position, dtype=float)):
+                self.loop.release_gizmo()
+            elif self.loop.set_gizmo_target(np.asarray(event.target.position, dtype=float)):
                 self._dragging_client = event.client_id
                 self.last_gizmo_update_s = time.perf_counter()
+
+        return gizmo
+
+    def _wire(self) -> None:
+        panel, loop = self.panel, self.loop
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
@@ -140,9 +126,15 @@ class DemoApp:
             loop.reset()
             self.history.clear()
 
+        @panel.robot.on_update
+        def _(_event) -> None:
+            if panel.robot.value != self.scene.name:
+                self.switch_scene(panel.robot.value)
+
         @panel.planar_scene.on_update
         def _(_event) -> None:
-            self.set_planar_scene(panel.planar_scene.value)
+            if self.scene.name == PLANAR:
+                self.switch_scene(PLANAR, panel.planar_scene.value)
 
         @panel.fig9.on_click
         def _(_event) -> None:
@@ -157,8 +149,6 @@ class DemoApp:
         for slider in (panel.dead_band_m, panel.gain_per_s, panel.max_speed_m_s):
             slider.on_update(settings_changed)
 
-        self._wire_replay()
-
         @panel.jog.on_click
         def _(_event) -> None:
             try:
@@ -166,15 +156,16 @@ class DemoApp:
             except CobotSafetyError as error:
                 logger.warning("jog refused: %s", error)
 
+        self._wire_replay()
+
     def _wire_replay(self) -> None:
         panel, replay = self.panel, self.replay
+        panel.play.label = "Pause" if replay.playing else "Play"
 
         @panel.play.on_click
         def _(_event) -> None:
             replay.playing = not replay.playing
             panel.play.label = "Pause" if replay.playing else "Play"
-
-        panel.play.label = "Pause" if replay.playing else "Play"
 
         @panel.seek_s.on_update
         def _(_event) -> None:
@@ -200,12 +191,12 @@ class DemoApp:
             upload = panel.upload.value
             self.load_uploaded(upload.name, upload.content)
 
+    # ---- actions ------------------------------------------------------------------------
     def load_uploaded(self, name: str, content: bytes) -> str:
         """Save an uploaded recording or bag and switch to it; returns the refusal or ""."""
         import tempfile  # noqa: PLC0415
 
-        folder = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-"))
-        path = folder / Path(name).name
+        path = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-")) / Path(name).name
         path.write_bytes(content)
         message = self.replay.load(path, path.name)
         if not message:
@@ -221,39 +212,56 @@ class DemoApp:
         if message:
             logger.warning("%s", message)
 
-    # ---- actions ------------------------------------------------------------------------
-    def set_planar_scene(self, label: str) -> None:
-        robot = make_planar(label)
-        with self.loop.lock:
-            self.loop.replace_robot(robot)
-            self.view.set_teleop(robot)
-        self.zones.reset()
-        self.history.clear()
+    def switch_scene(self, robot_name: str, planar_label: str = PLANAR_SCENES[0]) -> None:
+        """Swap robot and view (robot selector, planar scene, Fig. 9); the loop keeps running.
+
+        The old nodes go first (the new scene reuses their names); if the new robot cannot be
+        built, the previous one is rebuilt and the error re-raised.
+        """
+        with self._switching:
+            previous = self.scene.name
+            with warnings.catch_warnings():  # ViserUrdf removes children twice
+                warnings.simplefilter("ignore", UserWarning)
+                self.scene.remove()
+            self.gizmo.remove()
+            try:
+                scene = make_scene(self.server, robot_name, planar_label)
+            except CobotSafetyError:
+                scene = make_scene(self.server, previous)
+                raise
+            finally:
+                with self.loop.lock:
+                    self.loop.replace_robot(scene.robot)
+                    self.scene = scene
+                self.gizmo = self._make_gizmo()
+                self.zones.reset()
+                self.history.clear()
+                for handle in (self.panel.planar_scene, self.panel.fig9):
+                    handle.disabled = scene.dim != 2
+                self.panel.jog.options = ("+x", "-x", "+y", "-y") + (("+z", "-z") if scene.dim == 3 else ())
 
     def run_fig9(self) -> None:
         """Paper 1, Fig. 9 b: start pose, then pull the end-effector to the target as a held drag."""
         from cobotsafety.planar.scenarios import FIG9_TARGET_M  # noqa: PLC0415
 
-        self.panel.planar_scene.value = PLANAR_SCENES[2]  # fires set_planar_scene through the callback
-        self.set_planar_scene(PLANAR_SCENES[2])
+        self.switch_scene(PLANAR, PLANAR_SCENES[2])
         self.loop.set_gizmo_target(np.array([*FIG9_TARGET_M, 0.0]))
-
-    def _redraw(self) -> None:
-        self.view.redraw_limitations()
 
     # ---- render loop --------------------------------------------------------------------
     def render_once(self, wall_dt_s: float = 0.0) -> None:
-        snapshot = self.loop.snapshot()
-        elbow = np.asarray(self.loop.read(lambda robot: robot.p_base_elbow_m), dtype=float)
-        self.replay.advance(wall_dt_s)
-        human = self.replay.capsules()
-        closest = None if human is None else minimum_distance(*planar_capsules(elbow, snapshot.p_base_ee_m), human)
-        with self.server.atomic():
-            self.view.update(snapshot, elbow)
-            self.human.update(human, closest)
-            if not snapshot.dragging and self._dragging_client is None:
-                if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
-                    self.gizmo.position = tuple(snapshot.p_base_ee_m)
+        with self._switching:
+            scene = self.scene
+            snapshot = self.loop.snapshot()
+            data = self.loop.read(scene.read)
+            self.replay.advance(wall_dt_s)
+            human = self.replay.capsules()
+            with self.server.atomic():
+                capsules = scene.render(snapshot, data)
+                closest = None if human is None else minimum_distance(*capsules, human)
+                self.human.update(human, closest)
+                if not snapshot.dragging and self._dragging_client is None:
+                    if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
+                        self.gizmo.position = tuple(snapshot.p_base_ee_m)
         report = snapshot.report
         min_distance = report.min_distance_m if report is not None else None
         if min_distance is None and closest is not None:
@@ -264,6 +272,8 @@ class DemoApp:
             text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
                                report.binding if report is not None else (), snapshot.p_base_ee_m,
                                bool(report is not None and report.stopped))
+            if human is not None and human.stale:
+                text += f"  \n**sensor stale**: {human.reason}"
             if text != self.panel.status.content:
                 self.panel.status.content = text
             self.plots.push(self.history)

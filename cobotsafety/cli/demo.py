@@ -8,8 +8,9 @@ from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--scene", choices=("planar", "arm"), default="planar",
-                        help="planar: paper 1's RR arm seen from above; arm: a 3D pinocchio arm")
+    parser.add_argument("--scene", choices=("planar", "arm"), default=None,
+                        help="planar: paper 1's RR arm seen from above (default); arm: a 3D pinocchio arm "
+                             "(default when --robot names an arm)")
     parser.add_argument("--robot", default=None, help="arm name for --scene arm (default: the arm package's default)")
     parser.add_argument("--replay", type=Path, default=None,
                         help="human recording (.jsonl.gz) or ROS bag; default: the bundled recording")
@@ -21,7 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415 - heavy (viser)
 
-    app = DemoApp(DemoConfig(scene=args.scene, robot=args.robot, replay=args.replay, host=args.host,
+    scene = args.scene or ("arm" if args.robot not in (None, "planar") else "planar")
+    app = DemoApp(DemoConfig(scene=scene, robot=args.robot, replay=args.replay, host=args.host,
                              port=args.port, rate_hz=args.rate)).start()
     print(f"cobotsafety demo: open {app.url}", flush=True)
     try:

@@ -1,0 +1,103 @@
+"""The demo server without a browser: scenes, highlight, gizmo return, replay refusal, URDF joints."""
+
+import socket
+
+import numpy as np
+import pytest
+
+from cobotsafety.app import draw
+from cobotsafety.app.scene_arm import urdf_joint_values
+from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.errors import RecordingError, UnknownRobotError
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def app():
+    demo = DemoApp(DemoConfig(port=free_port()))  # threads not started: steps are driven by hand
+    yield demo
+    demo.server.stop()
+
+
+def test_binds_localhost_by_default(app):
+    assert app.server.get_host() == "127.0.0.1"
+    assert app.url.startswith("http://127.0.0.1:")
+
+
+def test_sliding_limitation_is_highlighted_and_gizmo_returns(app):
+    app.loop.reset()
+    app.loop.set_gizmo_target(np.array([0.3, 0.03, 0.0]))  # towards the base: joint 2's circle B
+    for _ in range(400):
+        app.loop.step_once()
+    report = app.loop.snapshot().report
+    assert any(name.startswith("B joint 2") for name in report.binding)
+    app.render_once()
+    node, _ = app.scene.view._limit_nodes["B joint 2"]
+    assert tuple(node.colors[0, 0]) == draw.HIGHLIGHT
+    other, colour = app.scene.view._limit_nodes["E extended reach"]
+    assert tuple(other.colors[0, 0]) == colour
+    app.loop.release_gizmo()
+    for _ in range(300):
+        app.loop.step_once()
+    app.render_once()
+    np.testing.assert_allclose(app.gizmo.position, app.loop.snapshot().p_base_ee_m, atol=1e-5)
+
+
+def test_arm_scene_switch_renders_and_unknown_robot_keeps_previous(app):
+    app.switch_scene("panda")
+    assert app.loop.robot.dim == 3 and app.scene.name == "panda"
+    app.loop.set_gizmo_target(app.loop.snapshot().p_base_ee_m + np.array([0.0, 0.0, 0.05]))
+    for _ in range(50):
+        app.loop.step_once()
+    app.render_once()
+    assert app.loop.snapshot().p_base_ee_m[2] > app.scene.robot.state.p_world_ee[2] - 1e-9
+    with pytest.raises(UnknownRobotError, match="known robots"):
+        app.switch_scene("r2d2")
+    assert app.scene.name == "panda" and app.loop.robot is app.scene.robot
+    app.switch_scene("planar")
+    assert app.loop.robot.dim == 2
+
+
+def test_zone_editor_adds_moves_and_deletes_a_planar_zone(app):
+    editor = app.zones
+    editor.shape.value = "sphere"
+    name = editor.add_zone()
+    zone = next(z for z in app.scene.zones() if z.name == name)
+    assert zone.radius_m == pytest.approx(editor.size.value)
+    editor.x.value = -0.1
+    editor.edit_selected()
+    zone = next(z for z in app.scene.zones() if z.name == name)
+    assert zone.center_m[0] == pytest.approx(-0.1)
+    editor.delete_zone()
+    assert name not in [z.name for z in app.scene.zones()]
+
+
+def test_bad_replay_is_refused_with_the_loaders_message(tmp_path):
+    bad = tmp_path / "bad.jsonl.gz"
+    bad.write_bytes(b"nope")
+    with pytest.raises(RecordingError, match="bad.jsonl.gz"):
+        DemoApp(DemoConfig(port=free_port(), replay=bad))
+
+
+def test_uploaded_garbage_keeps_previous_replay(app):
+    before = app.replay.replay
+    message = app.load_uploaded("garbage.jsonl.gz", b"\x00\x01")
+    assert message.startswith("refused garbage.jsonl.gz")
+    assert app.replay.replay is before
+    assert "refused" in app.panel.replay_message.content
+
+
+def test_urdf_joint_values_continuous_and_missing_joints():
+    import pinocchio as pin
+
+    model = pin.Model()
+    j1 = model.addJoint(0, pin.JointModelRUBZ(), pin.SE3.Identity(), "wrist")
+    model.addJoint(j1, pin.JointModelRY(), pin.SE3.Identity(), "elbow")
+    q = np.array([np.cos(2.5), np.sin(2.5), -0.7])
+    values = urdf_joint_values(model, q, ("elbow", "finger", "wrist"))
+    np.testing.assert_allclose(values, [-0.7, 0.0, 2.5])
