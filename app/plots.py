@@ -15,6 +15,10 @@ import viser.uplot as uplot
 from cobotsafety.app.control_loop import LoopSnapshot
 
 
+#: The x axis is simulated time in seconds, not a date.
+SCALES = {"x": uplot.Scale(time=False)}
+
+
 class PlotHistory:
     """Ring buffers of time [s], minimum distance [m], speeds [m/s] and loop rate [Hz]."""
 
@@ -48,14 +52,14 @@ class Plots:
         line = lambda label, colour: uplot.Series(label=label, stroke=colour, width=2)  # noqa: E731
         self.distance = server.gui.add_uplot(
             (empty, empty), (uplot.Series(label="t [s]"), line("min distance [m]", "red")),
-            title="Minimum distance", aspect=2.0)
+            title="Minimum distance", aspect=2.0, scales=SCALES)
         self.speed = server.gui.add_uplot(
             (empty, empty, empty),
             (uplot.Series(label="t [s]"), line("commanded [m/s]", "blue"), line("executed [m/s]", "green")),
-            title="End-effector speed", aspect=2.0)
+            title="End-effector speed", aspect=2.0, scales=SCALES)
         self.rate = server.gui.add_uplot(
             (empty, empty), (uplot.Series(label="t [s]"), line("loop [Hz]", "purple")),
-            title="Control-loop rate", aspect=2.0)
+            title="Control-loop rate", aspect=2.0, scales=SCALES)
 
     def push(self, history: PlotHistory) -> None:
         t = history.array("t_s")

@@ -72,6 +72,7 @@ class DemoApp:
         self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
         self.server.gui.configure_theme(control_width="large")
         self.scene = make_scene(self.server, robot_name)
+        self._planar_label = PLANAR_SCENES[0]
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz))
         self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
                                 self.loop.gizmo, ssm_available=False)
@@ -83,7 +84,7 @@ class DemoApp:
         self._dragging_client: int | None = None
         self._render_thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._switching = threading.Lock()
+        self._switching = threading.RLock()
         self.frames = 0
         self.last_gizmo_update_s = 0.0
         """``time.perf_counter()`` of the last accepted gizmo update (for the latency bench)."""
@@ -133,7 +134,7 @@ class DemoApp:
 
         @panel.planar_scene.on_update
         def _(_event) -> None:
-            if self.scene.name == PLANAR:
+            if self.scene.name == PLANAR and panel.planar_scene.value != self._planar_label:
                 self.switch_scene(PLANAR, panel.planar_scene.value)
 
         @panel.fig9.on_click
@@ -226,8 +227,10 @@ class DemoApp:
             self.gizmo.remove()
             try:
                 scene = make_scene(self.server, robot_name, planar_label)
+                self._planar_label = planar_label
             except CobotSafetyError:
                 scene = make_scene(self.server, previous)
+                self._planar_label = PLANAR_SCENES[0]
                 raise
             finally:
                 with self.loop.lock:
@@ -239,6 +242,9 @@ class DemoApp:
                 for handle in (self.panel.planar_scene, self.panel.fig9):
                     handle.disabled = scene.dim != 2
                 self.panel.jog.options = ("+x", "-x", "+y", "-y") + (("+z", "-z") if scene.dim == 3 else ())
+                self.panel.robot.value = scene.name  # the selector follows (no-op from its own callback)
+                if scene.dim == 2:
+                    self.panel.planar_scene.value = self._planar_label
 
     def run_fig9(self) -> None:
         """Paper 1, Fig. 9 b: start pose, then pull the end-effector to the target as a held drag."""
