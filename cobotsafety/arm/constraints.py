@@ -23,6 +23,9 @@ class Measures(NamedTuple):
     A: np.ndarray
     names: tuple[str, ...]
     angular: np.ndarray
+    rate: np.ndarray | None = None
+    """Shape (m,): how fast each distance changes by itself [m/s] (a moving human), so that
+    ``d_dot = A @ qdot + rate``; None means zeros."""
 
     @staticmethod
     def empty(nv: int) -> "Measures":
@@ -33,8 +36,11 @@ class Measures(NamedTuple):
         parts = [p for p in parts if p.distance.size]
         if not parts:
             return Measures.empty(nv)
+        rate = None
+        if any(p.rate is not None for p in parts):
+            rate = np.concatenate([p.rate if p.rate is not None else np.zeros(p.distance.size) for p in parts])
         return Measures(np.concatenate([p.distance for p in parts]), np.vstack([p.A for p in parts]),
-                        tuple(n for p in parts for n in p.names), np.concatenate([p.angular for p in parts]))
+                        tuple(n for p in parts for n in p.names), np.concatenate([p.angular for p in parts]), rate)
 
 
 class ArmConstraint:

@@ -113,6 +113,8 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     """Half-spaces on the command from the measures and the joint velocity limits."""
     normals = measures.A @ M
     offset = measures.A @ c
+    if measures.rate is not None:  # limits that move by themselves (a walking human)
+        offset = offset + measures.rate
     rate_desired = normals @ v_desired + offset
     width = np.where(measures.angular, params.damping_width_rad, params.damping_width_m) * (not hard)
     buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
@@ -123,6 +125,9 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     damped = (width > 0) & (d > 0) & (d < width) & (rate_desired < 0)
     bound = np.where(damped, np.maximum(bound, d / np.where(width > 0, width, 1.0) * rate_desired), bound)
     bound = bound - offset
+    # Never demand a separation rate above the maximum speed [m/s] (a human closing faster
+    # than the arm can retreat must not make a single limit infeasible on its own).
+    bound = np.minimum(bound, params.max_speed_m_s)
     # Joint velocity limits.
     vmax = state.model.velocityLimit * params.velocity_limit_scale
     vel_normals = np.vstack([M, -M])
@@ -131,9 +136,10 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     all_normals = np.vstack([normals, vel_normals])
     all_bounds = np.concatenate([bound, vel_bounds])
     names = measures.names + vel_names
-    # Keep the rows that can bind at the maximum speed.
+    # Keep the rows that can bind at twice the maximum speed, and every joint velocity limit.
     scale = np.linalg.norm(all_normals, axis=1)
     keep = all_bounds > -2.0 * params.max_speed_m_s * scale - 1e-12
+    keep[normals.shape[0]:] = True
     return HalfSpaces(all_normals[keep], all_bounds[keep], tuple(n for n, k in zip(names, keep) if k))
 
 
@@ -165,6 +171,11 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
     if method == "anticipative":
         hs = build_halfspaces(state, measures, M, c, vk, dt_s, params)
         result = project(vk, hs)
+        if result.stopped and np.any(hs.bounds > 0):
+            # The required retreats contradict each other: at least approach nothing (always
+            # feasible with v = 0) instead of stopping dead.
+            hs = HalfSpaces(hs.normals, np.minimum(hs.bounds, 0.0), hs.names)
+            result = project(vk, hs)
         command, binding, stopped = result.v_filtered, result.binding, result.stopped
         qdot = M @ command + (0.0 if stopped else c)
     elif method == "stop":

@@ -1,0 +1,121 @@
+"""The human-aware controllers, for autonomous paths and for teleoperation.
+
+``HumanAwareArm`` wraps an ``ArmTeleop`` and a human model (capsules + estimated velocities)
+and offers one ``step`` for the three controllers:
+
+* ``anticipative``: the sliding filter with the human capsules as moving zones
+  (``HumanCapsulesConstraint``): the robot slides around the human.
+* ``stop``: the standard implementation: zero velocity when the command (or the human's
+  approach) would bring any robot capsule within the critical distance.
+* ``reactive``: paper 2's potential field (eqs. 16-21) at the robot's closest point.
+
+With ``ssm=True`` the ISO/TS 15066 layer first limits the command's speed toward the human
+(``cobotsafety.control.ssm``), away-from-human motion untouched; for the reactive controller
+the same half-spaces are applied to its joint velocities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from cobotsafety.arm.step import ArmParams, mapping
+from cobotsafety.arm.teleop import ArmTeleop
+from cobotsafety.control.human_constraint import HumanCapsulesConstraint
+from cobotsafety.control.human_velocity import HumanVelocityEstimator
+from cobotsafety.control.potential_field import PotentialFieldParams, potential_field_qdot
+from cobotsafety.control.ssm import SsmParams, ssm_halfspaces
+from cobotsafety.projection import slide
+from cobotsafety.teleop import StepReport
+
+CONTROLLERS = ("anticipative", "reactive", "stop")
+
+
+@dataclass
+class HumanStep:
+    report: StepReport
+    min_distance_m: float
+    p_robot: np.ndarray
+    p_human: np.ndarray
+
+
+class HumanAwareArm:
+    """An arm that knows where the human is. ``set_human`` before every ``step``."""
+
+    def __init__(self, robot: str = "panda", zones: list | None = None, params: ArmParams | None = None,
+                 human: HumanCapsulesConstraint | None = None, ssm: SsmParams | None = None,
+                 field: PotentialFieldParams | None = None):
+        self.human = human or HumanCapsulesConstraint()
+        self.teleop = ArmTeleop(robot, zones=zones if zones is not None else [], extra_constraints=[self.human],
+                                params=params)
+        self.ssm_params = ssm or SsmParams()
+        self.field = field or PotentialFieldParams(critical_m=self.human.critical_m,
+                                                   influence_m=self.human.activation_m - self.human.critical_m)
+        self.velocity = HumanVelocityEstimator()
+
+    @property
+    def state(self):
+        return self.teleop.state
+
+    def set_human(self, t_s: float, p0, p1, radius, names=()) -> None:
+        v0, v1 = self.velocity.update(t_s, p0, p1)
+        self.human.set_human(p0, p1, radius, v0, v1, names)
+
+    def clear_human(self) -> None:
+        self.human.set_human(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+
+    def _ssm_rows(self, M, c):
+        measures = self.human.measures(self.state)
+        return ssm_halfspaces(measures, self.human.critical_m, M, c, self.ssm_params), measures
+
+    def step(self, v_desired_m_s: np.ndarray, dt_s: float, controller: str = "anticipative",
+             ssm: bool = False) -> HumanStep:
+        if controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
+        v = np.asarray(v_desired_m_s, dtype=float)
+        if not np.all(np.isfinite(v)):
+            v = np.zeros(3)
+        state = self.state
+        if controller == "reactive":
+            report = self._reactive_step(v, dt_s, ssm)
+        else:
+            if ssm:
+                M, c = mapping(state, self.teleop.params, self.teleop.R_world_ee_ref)
+                rows, _ = self._ssm_rows(M, c)
+                if rows.normals.shape[0]:
+                    try:
+                        v = slide(v, rows.normals, rows.bounds)
+                    except ValueError:
+                        v = np.zeros(3)
+            report = self.teleop.step(v, dt_s, controller)
+        d, pr, ph = self.human.minimum(state)
+        return HumanStep(report, d, pr, ph)
+
+    def _reactive_step(self, v_att: np.ndarray, dt_s: float, ssm: bool) -> StepReport:
+        state = self.state
+        before = state.p_world_ee.copy()
+        d, pr, ph = self.human.minimum(state)
+        J_cp = None
+        if np.isfinite(d):
+            dists = self.human.pairs(state)[0]
+            capsule = int(np.unravel_index(np.argmin(dists), dists.shape)[0]) + self.human.skip_capsules
+            J_cp = state.point_jacobian(capsule, pr)
+        qdot, stopped = potential_field_qdot(state.J_ee, v_att, d, pr, ph, J_cp, self.field)
+        if ssm and not stopped:
+            measures = self.human.measures(state)
+            if measures.distance.size:
+                limit = self.ssm_params.max_approach_speed_m_s(measures.distance + self.human.critical_m)
+                qdot = slide(qdot, measures.A, -limit)
+        vmax = state.model.velocityLimit
+        ratio = float(np.max(np.abs(qdot) / vmax))
+        if ratio > 1.0:
+            qdot = qdot / ratio
+        q = pin.integrate(state.model, state.q, qdot * dt_s)
+        iq = state.limited_v[:, 0] if state.limited_v.size else np.zeros(0, dtype=int)
+        q[iq] = np.clip(q[iq], state.lower[iq], state.upper[iq])
+        state.q = q
+        state.update()
+        executed = (state.p_world_ee - before) / dt_s
+        return StepReport(v_att, v_att, executed, state.p_world_ee.copy(), (), stopped)

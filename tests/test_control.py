@@ -1,0 +1,157 @@
+"""Human-aware motion: the human constraint against finite differences, a moving human,
+the anti-windup PI, ISO/TS 15066 numbers by hand, the potential field, the experiment."""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cobotsafety.arm.step import ArmParams, mapping
+from cobotsafety.control.controllers import HumanAwareArm
+from cobotsafety.control.human_constraint import HumanCapsulesConstraint
+from cobotsafety.control.pi import AntiWindupPI
+from cobotsafety.control.potential_field import PotentialFieldParams, repulsion_speed
+from cobotsafety.control.ssm import SsmParams
+
+logging.getLogger("cobotsafety.filter").setLevel(logging.ERROR)
+
+
+def test_human_constraint_normal_matches_finite_differences_along_the_command():
+    arm = HumanAwareArm("panda")
+    state = arm.state
+    rng = np.random.default_rng(0)
+    M, c = mapping(state, ArmParams(), None)
+    eps = 1e-6
+    checked = 0
+    for _ in range(20):
+        p = state.p_world_ee + rng.normal(size=3) * 0.15
+        human = HumanCapsulesConstraint(activation_m=5.0)
+        human.set_human([p], [p + rng.normal(size=3) * 0.2], [0.08])
+        measures = human.measures(state)
+        v = rng.normal(size=3)
+        q0 = state.q.copy()
+        values = []
+        for sign in (1, -1):
+            state.q = pin.integrate(state.model, q0, sign * eps * (M @ v))
+            state.update()
+            values.append(human.measures(state).distance)
+        state.q = q0
+        state.update()
+        fd = (values[0] - values[1]) / (2 * eps)
+        smooth = np.abs(values[0] + values[1] - 2 * measures.distance) < 1e-8
+        np.testing.assert_allclose(((measures.A @ M) @ v)[smooth], fd[smooth], rtol=1e-4, atol=1e-6)
+        checked += int(smooth.sum())
+    assert checked > 50
+
+
+def test_human_velocity_enters_as_the_rate_of_the_distance():
+    arm = HumanAwareArm("panda")
+    state = arm.state
+    p = state.p_world_ee + np.array([0.0, 0.35, 0.0])
+    v_h = np.array([0.0, -0.5, 0.0])  # walking straight at the hand
+    human = HumanCapsulesConstraint()
+    human.set_human([p], [p + [0, 0, 0.3]], [0.1], [v_h], [v_h])
+    m = human.measures(state)
+    dt = 1e-6
+    moved = HumanCapsulesConstraint()
+    moved.set_human([p + v_h * dt], [p + [0, 0, 0.3] + v_h * dt], [0.1])
+    fd = (moved.measures(state).distance - m.distance) / dt
+    np.testing.assert_allclose(m.rate, fd, rtol=1e-4, atol=1e-6)
+
+
+def moving_human_run(controller, steps=900, dt=0.004):
+    arm = HumanAwareArm("panda")
+    start = arm.state.p_world_ee + np.array([0.0, 0.75, 0.0])
+    distances, stopped = [], []
+    for i in range(steps):
+        # 0.3 m/s toward the robot's hand for 1.5 s, then the human stands there.
+        p = start + np.array([0.0, -0.3, 0.0]) * min(i * dt, 1.5)
+        arm.set_human(i * dt, [p], [p + [0.0, 0.0, 0.4]], [0.12])
+        result = arm.step(np.zeros(3), dt, controller)  # the robot is asked to hold still
+        distances.append(result.min_distance_m)
+        stopped.append(result.report.stopped)
+    return np.array(distances), np.array(stopped)
+
+
+def test_moving_human_anticipative_keeps_the_critical_distance_and_stop_halts():
+    critical = HumanCapsulesConstraint().critical_m
+    distances, _ = moving_human_run("anticipative")
+    assert distances.min() >= critical - 1e-4  # gives way every step
+    d_stop, stopped = moving_human_run("stop")
+    assert stopped[-100:].all()  # halts ...
+    assert d_stop.min() < critical - 0.05  # ... and the human closes in on it
+
+
+def test_pi_anti_windup_saturates_and_recovers():
+    pi = AntiWindupPI(kp_per_s=2.0, ki_per_s2=1.0, limit=0.3)
+    for _ in range(2000):  # 4 s far from the target: saturated
+        out = pi.update(np.array([1.0, 0.0, 0.0]), 0.002)
+        assert np.linalg.norm(out) <= 0.3 + 1e-12
+    assert pi.saturated
+    assert np.linalg.norm(pi.integral) < 0.05  # no windup
+    out = pi.update(np.array([-0.01, 0.0, 0.0]), 0.002)  # the target is passed: reverse at once
+    assert out[0] < 0.0 and not pi.saturated
+    naive_integral = 2000 * 0.002  # what an unclamped integrator would hold (4 m.s)
+    assert naive_integral * pi.ki_per_s2 > 1.0  # which would have overshot for seconds
+
+
+def test_ssm_numbers_match_a_hand_computation():
+    p = SsmParams(human_speed_m_s=1.6, reaction_time_s=0.1, stopping_time_s=0.3, intrusion_m=0.0,
+                  sensor_uncertainty_m=0.05, robot_uncertainty_m=0.01)
+    # S_p = 1.6 * 0.4 + 0.25 * 0.1 + 0.25 * 0.3 / 2 + 0 + 0.05 + 0.01 = 0.7625 m
+    assert p.protective_distance_m(0.25) == pytest.approx(0.7625)
+    # v_r,max = (1.0 - 0.64 - 0.06) / (0.1 + 0.15) = 1.2 m/s; nothing allowed at 0.6 m
+    np.testing.assert_allclose(p.max_approach_speed_m_s([1.0, 0.7, 0.6]), [1.2, 0.0, 0.0], atol=1e-12)
+    assert p.protective_distance_m(float(p.max_approach_speed_m_s(0.9))) == pytest.approx(0.9)
+
+
+def test_ssm_slows_the_approach_but_not_the_retreat():
+    # About 0.73 m between the hand and the human: S_p allows ~0.1 m/s toward them.
+    arm = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05))
+    p = arm.state.p_world_ee + np.array([0.0, 0.87, 0.0])
+    arm.set_human(0.0, [p], [p], [0.05])
+    toward = arm.step(np.array([0.0, 0.3, 0.0]), 0.002, "anticipative", ssm=True)
+    assert 0.0 < toward.report.v_executed_m_s[1] < 0.2  # limited toward the human
+    arm2 = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05))
+    arm2.set_human(0.0, [p], [p], [0.05])
+    away = arm2.step(np.array([0.0, -0.3, 0.0]), 0.002, "anticipative", ssm=True)
+    np.testing.assert_allclose(away.report.v_commanded_m_s, [0.0, -0.3, 0.0], atol=1e-9)  # not slowed
+
+
+def test_a_larger_stale_human_never_lets_the_robot_approach_faster():
+    speeds = []
+    for radius in (0.05, 0.15, 0.3):  # the degraded model grows while the sensors are silent
+        arm = HumanAwareArm("panda")
+        p = arm.state.p_world_ee + np.array([0.0, 0.7, 0.0])
+        arm.set_human(0.0, [p], [p], [radius])
+        result = arm.step(np.array([0.0, 0.4, 0.0]), 0.004, "anticipative")
+        speeds.append(result.report.v_executed_m_s[1])
+    assert speeds[0] >= speeds[1] - 1e-9 >= speeds[2] - 2e-9
+
+
+def test_repulsion_magnitude_is_eq_18():
+    p = PotentialFieldParams(critical_m=0.2, influence_m=0.3, k_rep_m_s=0.1, max_repulsion_m_s=10.0)
+    assert repulsion_speed(0.6, p) == 0.0
+    assert repulsion_speed(0.35, p) == pytest.approx(0.1 * (0.3 / 0.15 - 1))
+    assert repulsion_speed(0.2, p) == p.max_repulsion_m_s
+
+
+def test_human_approach_experiment_json(capsys, tmp_path):
+    from cobotsafety.cli import main
+
+    assert main(["experiment", "human-approach", "--json", "--dt", "0.01", "--out", str(tmp_path)]) == 0
+    results = {r["controller"]: r for r in json.loads(capsys.readouterr().out)}
+    assert set(results) == {"anticipative", "reactive", "stop"}
+    for r in results.values():
+        assert set(r) == {"controller", "min_distance_m", "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s"}
+        assert r["completion_time_s"] is not None and 20.0 < r["completion_time_s"] < 60.0
+        assert 0.0 < r["peak_ee_speed_m_s"] < 2.5  # bounded by the joint speed limits
+        assert r["min_distance_m"] < 0.5  # the human does come close
+    # The stop baseline stands still the longest and lets the human closest.
+    assert results["stop"]["stopped_time_s"] > results["anticipative"]["stopped_time_s"]
+    assert results["stop"]["min_distance_m"] < results["anticipative"]["min_distance_m"]
+    assert len(list(tmp_path.glob("*.png"))) == 6
