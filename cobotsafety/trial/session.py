@@ -1,0 +1,108 @@
+"""Run one trial on a ``Teleoperated`` robot: course, optional colour task, scoring.
+
+Completion time runs from the first motion to the last target; touching an obstacle scores
+-3 and is logged with time and place (once per contact). Headless here (the simulated
+participant); the browser trial drives the same ``TrialRun`` from the gizmo.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cobotsafety.trial.colour_task import COLOURS, ColourTask
+from cobotsafety.trial.course import Course
+
+OBSTACLE_POINTS = -3
+
+
+@dataclass
+class TrialRun:
+    course: Course
+    divided: bool
+    seed: int
+    next_target: int = 0
+    started_s: float | None = None
+    finished_s: float | None = None
+    errors: list = field(default_factory=list)
+    trajectory: list = field(default_factory=list)
+    _touching: int | None = None
+
+    def __post_init__(self):
+        self.colour = ColourTask(self.seed) if self.divided else None
+
+    @property
+    def finished(self) -> bool:
+        return self.finished_s is not None
+
+    def target(self) -> np.ndarray:
+        return np.array(self.course.targets_m[min(self.next_target, len(self.course.targets_m) - 1)])
+
+    def update(self, t_s: float, p_m: np.ndarray, moving: bool) -> None:
+        """Advance the trial with the end-effector at ``p_m`` at time ``t_s``."""
+        if self.started_s is None:
+            if not moving:
+                return
+            self.started_s = t_s
+        self.trajectory.append((t_s, *np.asarray(p_m, dtype=float)[:3]))
+        touched = self.course.touched(p_m)
+        if touched is not None and touched != self._touching:
+            self.errors.append({"kind": "obstacle", "t_s": round(t_s - self.started_s, 3),
+                                "obstacle": touched, "p_m": [round(float(x), 4) for x in p_m[:2]],
+                                "points": OBSTACLE_POINTS})
+        self._touching = touched
+        if self.course.reached(self.next_target, p_m):
+            self.next_target += 1
+            if self.next_target == len(self.course.targets_m):
+                self.finished_s = t_s
+
+    def record(self, participant: str, condition: str, order: int, seed: int) -> dict:
+        colour_errors = []
+        response_times = []
+        if self.colour is not None:
+            for s in self.colour.stimuli:
+                if s.answer is None:
+                    colour_errors.append({"kind": "missed", "t_s": round(s.shown_s - (self.started_s or 0), 3), "points": -2})
+                elif not s.correct:
+                    colour_errors.append({"kind": "wrong", "t_s": round(s.shown_s - (self.started_s or 0), 3), "points": -1})
+            response_times = [round(x, 3) for x in self.colour.response_times_s()]
+        errors = self.errors + colour_errors
+        return {
+            "participant": participant, "condition": condition,
+            "attention": "divided" if self.divided else "full", "order": order, "seed": seed,
+            "completion_time_s": None if self.finished_s is None else round(self.finished_s - self.started_s, 3),
+            "error_score": sum(e["points"] for e in errors), "errors": errors,
+            "response_times_s": response_times, "course": self.course.name,
+        }
+
+
+def simulate_trial(robot, course: Course, participant, condition: str, divided: bool, seed: int,
+                   dt_s: float = 0.01, timeout_s: float = 120.0) -> tuple[TrialRun, np.ndarray]:
+    """Run a whole trial with a ``SimulatedParticipant`` driving ``robot`` under ``condition``."""
+    robot.reset()
+    run = TrialRun(course, divided, seed)
+    pending = None
+    t = 0.0
+    while t < timeout_s and not run.finished:
+        p = robot.p_base_ee_m
+        target = run.target()
+        if course.height_m is not None:
+            goal = np.array([target[0], target[1], course.height_m])
+        else:
+            goal = target
+        v = participant.command(t, p[:robot.dim], goal[:robot.dim], divided)
+        report = robot.step(v, dt_s, condition)
+        t += dt_s
+        moving = bool(np.linalg.norm(report.v_executed_m_s) > 1e-3)
+        participant.observe(t, moving)
+        run.update(t, report.p_base_ee_m, moving=moving)
+        if run.colour is not None and run.started_s is not None:
+            shown = run.colour.tick(t)
+            if shown is not None:
+                answer, delay = participant.colour_answer(shown.ink, COLOURS)
+                pending = (t + delay, answer) if answer is not None else None
+            if pending is not None and t >= pending[0]:
+                run.colour.answer(t, pending[1])
+                pending = None
+    return run, np.array(run.trajectory).reshape(-1, 4)

@@ -1,0 +1,126 @@
+"""User trials: plan, colour task, durable logs (killed mid-session), analysis, simulation."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from cobotsafety.trial.analysis import analyze
+from cobotsafety.trial.colour_task import ColourTask
+from cobotsafety.trial.log_store import LogStore, load
+from cobotsafety.trial.plan import session_plan
+from cobotsafety.trial.simulate import run_simulated_sessions
+
+
+def test_orders_are_counterbalanced_and_reproducible_from_the_seed():
+    ids = [f"P{i}" for i in range(10)]
+    plan = session_plan(ids, seed=4)
+    first = {p: next(t.condition for t in plan if t.participant == p and t.order == 1) for p in ids}
+    assert Counter(first.values()) == {"anticipative": 5, "stop": 5}
+    for p in ids:  # every participant does every condition in both attention modes
+        assert sorted((t.attention, t.condition) for t in plan if t.participant == p) == [
+            ("divided", "anticipative"), ("divided", "stop"), ("full", "anticipative"), ("full", "stop")]
+    assert session_plan(ids, seed=4) == plan
+    assert any(session_plan(ids, seed=s) != plan for s in range(5, 10))
+    three = session_plan([f"P{i}" for i in range(12)], ("anticipative", "stop", "reactive"), seed=1)
+    orders = Counter(tuple(t.condition for t in three if t.participant == p and t.attention == "full") for p in {t.participant for t in three})
+    assert len(orders) == 6 and set(orders.values()) == {2}
+    with pytest.raises(ValueError, match="unique"):
+        session_plan(["P1", "P1"])
+
+
+def test_colour_words_always_conflict_and_are_scored_like_the_paper():
+    task = ColourTask(seed=1)
+    for k in range(6):
+        s = task.tick(2.0 * k)
+        assert s is not None and s.word != s.ink
+        assert task.tick(2.0 * k + 1.0) is None
+        if k % 3 == 0:
+            task.answer(2.0 * k + 0.7, s.ink)  # right
+        elif k % 3 == 1:
+            task.answer(2.0 * k + 0.9, next(c for c in ("red", "green", "blue", "yellow") if c != s.ink))  # wrong
+    # 2 right, 2 wrong (-1 each), 2 missed (-2 each)
+    assert task.score() == -6
+    np.testing.assert_allclose(task.response_times_s(), [0.7, 0.9, 0.7, 0.9])
+
+
+def test_a_session_killed_mid_way_loses_nothing_already_finished(tmp_path):
+    out = tmp_path / "logs"
+    proc = subprocess.Popen([sys.executable, "-m", "cobotsafety", "trial", "--simulate", "6", "--out", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    log = out / "trials.jsonl"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not log.exists() or log.read_text().count("\n") < 3):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    loaded = load(out)
+    assert 3 <= len(loaded.records) < 24
+    assert loaded.problems == []  # every finished trial is whole, with its trajectory
+    for record in loaded.records:
+        assert np.load(out / record["trajectory"]).shape[1] == 4
+    run_simulated_sessions(out, 6)  # resume
+    resumed = load(out)
+    assert len(resumed.records) == 24 and resumed.problems == []
+
+
+def write_paper_like_logs(directory, seed=0):
+    """Completion times drawn from the paper's own means and SDs, n = 10 per condition."""
+    rng = np.random.default_rng(seed)
+    store = LogStore(directory)
+    stats = {("full", "stop"): (40.0, 6.3), ("full", "anticipative"): (31.9, 3.8),
+             ("divided", "stop"): (63.4, 9.3), ("divided", "anticipative"): (43.2, 3.93)}
+    for i in range(10):
+        for (attention, condition), (mean, sd) in stats.items():
+            score = -int(rng.poisson(4.7 if condition == "stop" else 0.9)) if attention == "divided" else 0
+            store.append({"participant": f"P{i:02d}", "condition": condition, "attention": attention, "order": 1,
+                          "seed": seed, "completion_time_s": float(rng.normal(mean, sd)), "error_score": score,
+                          "errors": [], "response_times_s": []}, np.zeros((2, 4)))
+
+
+def test_analysis_on_the_papers_numbers(tmp_path):
+    write_paper_like_logs(tmp_path)
+    report = analyze(tmp_path, tmp_path / "report")
+    rows = [line for line in report.splitlines() if line.startswith("| ") and "comparison" not in line]
+    assert len(rows) == 3  # full, divided, divided - full
+    p_values = [float(r.split("|")[-2]) for r in rows]
+    assert p_values[0] < 0.05 and p_values[1] < 0.05  # sliding faster in both modes
+    assert all(float(r.split("|")[4].strip(" %")) > 0 for r in rows[:2])  # same direction
+    assert (tmp_path / "report" / "times_full.png").exists() and (tmp_path / "report" / "times_divided.png").exists()
+
+
+def test_bad_logs_are_reported_with_file_and_line_and_the_rest_is_analysed(tmp_path):
+    write_paper_like_logs(tmp_path)
+    log = tmp_path / "trials.jsonl"
+    lines = log.read_text().splitlines()
+    lines.insert(5, "{not json")
+    lines.append(lines[0])  # duplicate trial
+    log.write_text("\n".join(lines) + "\n")
+    first = json.loads(lines[1])
+    (tmp_path / first["trajectory"]).unlink()
+    loaded = load(tmp_path)
+    assert len(loaded.records) == 40
+    text = "\n".join(loaded.problems)
+    assert f"{log}:6: corrupt line" in text
+    assert f"{log}:{len(lines)}: duplicate trial" in text
+    assert f"{log}:2: trajectory file" in text
+    report = analyze(tmp_path)
+    assert "corrupt line" in report and "| full attention" in report
+
+
+def test_simulated_sessions_end_to_end(tmp_path):
+    written = run_simulated_sessions(tmp_path, participants=3, seed=2)
+    assert len(written) == 12
+    assert all(r["completion_time_s"] is not None and r["completion_time_s"] > 0 for r in written)
+    divided = [r for r in written if r["attention"] == "divided"]
+    assert all(r["response_times_s"] for r in divided)
+    assert all(not r["response_times_s"] for r in written if r["attention"] == "full")
+    report = analyze(tmp_path)
+    assert "| full attention: completion time [s]" in report
