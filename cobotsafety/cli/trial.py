@@ -1,6 +1,7 @@
-"""``cobotsafety trial``: user trials. Headless sessions with simulated participants for now.
+"""``cobotsafety trial``: run user trials in the browser, or headless with simulated participants.
 
-The browser trial (participant and operator views) is not built yet: see issue 7.
+``cobotsafety trial --participants P01,P02 --out DIR`` serves the participant view and prints
+the operator token; ``cobotsafety trial --simulate N --out DIR`` runs N simulated participants.
 """
 
 from __future__ import annotations
@@ -10,14 +11,31 @@ from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--simulate", type=int, required=True, metavar="N",
+    parser.add_argument("--simulate", type=int, default=0, metavar="N",
                         help="run complete sessions with N simulated participants (headless)")
+    parser.add_argument("--participants", default="P01,P02,P03,P04", help="pseudonyms, comma-separated")
+    parser.add_argument("--host", default="127.0.0.1")
+    parser.add_argument("--port", type=int, default=8080)
     parser.add_argument("--out", type=Path, default=Path("out/trials"), metavar="DIR", help="log folder (resumed if it exists)")
     parser.add_argument("--seed", type=int, default=0, help="plan and participant seed (recorded in the log)")
     parser.add_argument("--scene", choices=["planar", "arm"], default="planar")
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.simulate:
+        import time
+
+        from cobotsafety.trial.server import TrialServer
+
+        participants = [p.strip() for p in args.participants.split(",") if p.strip()]
+        server = TrialServer(args.out, participants, args.seed, args.host, args.port).start_server()
+        print(f"cobotsafety trial: participant view {server.url}  operator token: {server.token}", flush=True)
+        try:
+            while True:
+                time.sleep(1.0)
+        except KeyboardInterrupt:
+            server.stop()
+        return 0
     from cobotsafety.trial.simulate import run_simulated_sessions
 
     written = run_simulated_sessions(args.out, args.simulate, args.seed, args.scene)
