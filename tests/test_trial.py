@@ -124,3 +124,36 @@ def test_simulated_sessions_end_to_end(tmp_path):
     assert all(not r["response_times_s"] for r in written if r["attention"] == "full")
     report = analyze(tmp_path)
     assert "| full attention: completion time [s]" in report
+
+
+@pytest.mark.parametrize("robot", ["planar", "panda"])
+def test_trial_server_runs_a_trial_on_the_planar_and_the_3d_arm(tmp_path, robot):
+    """Without a browser: the operator starts a trial, the gizmo drives the robot to the first
+    target, and the trial's progress follows."""
+    from cobotsafety.trial.server import TrialServer
+
+    server = TrialServer(tmp_path, ["P01"], seed=0, port=_free_port(), robot=robot)
+    try:
+        trial = server.start_next()
+        assert trial is not None and server.current is not None
+        x, y = server.course.targets_m[0]
+        z = server.course.height_m or 0.0
+        for _ in range(3000):
+            server.loop.set_gizmo_target(np.array([x, y, z]))
+            server.loop.step_once()
+            if server.current is None or server.current[1].next_target >= 1:
+                break
+        run = server.current[1] if server.current else None
+        assert run is not None and run.started_s is not None and run.next_target >= 1
+        server.render_once()
+        assert "target 2" in server.progress.content
+    finally:
+        server.server.stop()
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

@@ -19,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("out/trials"), metavar="DIR", help="log folder (resumed if it exists)")
     parser.add_argument("--seed", type=int, default=0, help="plan and participant seed (recorded in the log)")
     parser.add_argument("--scene", choices=["planar", "arm"], default="planar")
+    parser.add_argument("--robot", default="panda", help="3D arm for --scene arm (browser trial)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,7 +29,8 @@ def run(args: argparse.Namespace) -> int:
         from cobotsafety.trial.server import TrialServer
 
         participants = [p.strip() for p in args.participants.split(",") if p.strip()]
-        server = TrialServer(args.out, participants, args.seed, args.host, args.port).start_server()
+        robot = "planar" if args.scene == "planar" else args.robot
+        server = TrialServer(args.out, participants, args.seed, args.host, args.port, robot=robot).start_server()
         print(f"cobotsafety trial: participant view {server.url}  operator token: {server.token}", flush=True)
         try:
             while True:

@@ -1,6 +1,7 @@
 """The browser trial: a participant view and an operator panel behind a token.
 
-Participant view (every browser at the URL): the planar robot seen from above, the course
+Participant view (every browser at the URL): the robot (the planar arm seen from above, or a 3D
+arm with ``robot="panda"`` etc., its course in a horizontal plane), the course
 (targets in order, triangles), the gizmo to drag, the trial's progress and, in divided
 attention, the colour word with four answer buttons. It never names the condition.
 Operator panel: enter the token printed at start in *Operator*; that browser alone gets the
@@ -20,10 +21,9 @@ import numpy as np
 import viser
 
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
-from cobotsafety.app.scene_planar import PlanarView
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.app.scenes import make_scene
 from cobotsafety.trial.colour_task import COLOURS
-from cobotsafety.trial.course import Course, planar_course
+from cobotsafety.trial.course import Course, arm_course, planar_course
 from cobotsafety.trial.log_store import LogStore
 from cobotsafety.trial.plan import PlannedTrial, session_plan
 from cobotsafety.trial.session import TrialRun
@@ -34,15 +34,18 @@ INK_RGB = {"red": "#d62728", "green": "#2ca02c", "blue": "#1f77b4", "yellow": "#
 
 class TrialServer:
     def __init__(self, out: Path, participants: list[str], seed: int = 0, host: str = "127.0.0.1",
-                 port: int = 8080, course: Course | None = None):
+                 port: int = 8080, course: Course | None = None, robot: str = "planar"):
         self.store = LogStore(out)
         self.seed = seed
         self.plan = session_plan(participants, seed=seed)
-        self.course = course or planar_course()
+        self.course = course or (planar_course() if robot == "planar" else arm_course())
         self.token = secrets.token_hex(4)
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        self.teleop = PlanarTeleop()
-        self.view = PlanarView(self.server, self.teleop)
+        self.scene = make_scene(self.server, robot)
+        self.teleop = self.scene.robot
+        if robot != "planar":  # the course's triangles are the only obstacles of the task
+            self.teleop.zones = []
+            self.scene.redraw()
         self.loop = ControlLoop(self.teleop, LoopSettings())
         self.loop.before_step.append(self._before_step)
         self.current: tuple[PlannedTrial, TrialRun] | None = None
@@ -52,7 +55,7 @@ class TrialServer:
         self._draw_course()
         self._make_participant_gui()
         self.gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.15, line_width=4.0, active_axes=(True, True, False), disable_rotations=True,
+            "/gizmo", scale=0.15, line_width=4.0, active_axes=self.scene.gizmo_axes, disable_rotations=True,
             depth_test=False, position=tuple(self.teleop.p_base_ee_m))
 
         @self.gizmo.on_update
@@ -69,11 +72,12 @@ class TrialServer:
     # ---- views -----------------------------------------------------------------------------
     def _draw_course(self) -> None:
         scene = self.server.scene
+        z = self.course.height_m or 0.0
         self.target_nodes = [scene.add_icosphere(f"/course/target{i}", radius=self.course.target_radius_m,
-                                                 color=(120, 120, 120), position=(x, y, 0.0), opacity=0.6)
+                                                 color=(120, 120, 120), position=(x, y, z), opacity=0.6)
                              for i, (x, y) in enumerate(self.course.targets_m)]
         for i, tri in enumerate(self.course.obstacles_m):
-            pts = np.array([[*tri[k], 0.0] for k in (0, 1, 1, 2, 2, 0)]).reshape(3, 2, 3)
+            pts = np.array([[*tri[k], z] for k in (0, 1, 1, 2, 2, 0)]).reshape(3, 2, 3)
             scene.add_line_segments(f"/course/obstacle{i}", pts, (200, 40, 40), thickness=0.004)
 
     def _make_participant_gui(self) -> None:
@@ -168,7 +172,7 @@ class TrialServer:
 
     def render_once(self) -> None:
         snapshot = self.loop.snapshot()
-        self.view.update(snapshot, self.teleop.p_base_elbow_m)
+        self.scene.render(snapshot, self.loop.read(self.scene.read))
         if not snapshot.dragging:
             self.gizmo.position = tuple(snapshot.p_base_ee_m)
         with self._lock:
