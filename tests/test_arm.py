@@ -184,6 +184,7 @@ def test_recovery_from_inside_a_zone_allows_only_moves_that_reduce_the_violation
 
 def test_singular_pose_gives_finite_smooth_commands():
     robot = ArmTeleop("ur5", zones=[])
+    robot.reach = ReachLimits(tuple(robot.state.capsule_p0[0]), 0.0, 10.0)  # the singularity alone
     state = robot.state
     state.q = np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0])  # arm stretched up: singular
     state.update()
@@ -202,3 +203,13 @@ def test_singular_pose_gives_finite_smooth_commands():
     assert state.p_world_ee[2] < z0 - 0.02
     report = robot.step(np.array([np.nan, 0, 0]), 0.002)
     assert np.all(np.isfinite(state.q))
+
+
+def test_the_extended_reach_limit_holds_while_the_arm_stretches():
+    robot = ArmTeleop("panda", zones=[])
+    shoulder = np.array(robot.reach.shoulder)
+    for _ in range(1500):  # drag straight out for 3 s
+        robot.step(np.array([0.5, 0.0, 0.2]), 0.002)
+    reach = np.linalg.norm(robot.state.p_world_ee - shoulder)
+    assert reach <= robot.reach.outer_m + 1e-6
+    assert reach > robot.reach.outer_m - 0.05  # it got there and slid/stopped on it

@@ -22,15 +22,18 @@ def default_zones(state: RobotState) -> list:
     ]
 
 
-def default_constraints(state: RobotState, zones: list | None) -> list[ArmConstraint]:
+def reach_limits(state: RobotState) -> ReachLimits:
+    """Inner 0.15 m and extended reach from the first link's capsule, sized at the home pose
+    (1.4 x the home reach, at least 0.5 m)."""
+    reach = float(np.linalg.norm(state.p_world_ee - state.capsule_p0[0]))
+    return ReachLimits(tuple(state.capsule_p0[0]), inner_m=0.15, outer_m=max(0.5, 1.4 * reach))
+
+
+def default_constraints(state: RobotState, zones: list | None, reach: ReachLimits | None = None) -> list[ArmConstraint]:
     """Joint limits, reach, the table (z = 0) for everything but the base links, and the zones."""
     constraints: list[ArmConstraint] = [JointPositionLimits()]
     if state.name != "planar":
-        reach = float(np.linalg.norm(state.p_world_ee - state.capsule_p0[0]))
-        constraints += [
-            ReachLimits(tuple(state.capsule_p0[0]), inner_m=0.15, outer_m=max(0.5, 1.4 * reach)),
-            TablePlane(0.0, skip_capsules=2),
-        ]
+        constraints += [reach or reach_limits(state), TablePlane(0.0, skip_capsules=2)]
     for zone in zones if zones is not None else default_zones(state):
         constraints.append(ZoneConstraint(zone, skip_capsules=1))
     return constraints
@@ -53,10 +56,20 @@ class ArmTeleop:
         self.extra_constraints = list(extra_constraints or [])
         self.R_world_ee_ref = self.state.R_world_ee.copy()
         self.last_qdot = np.zeros(self.state.nv)
+        # Sized once at the home pose: a reach limit recomputed from the current pose would move
+        # with the arm.
+        self.reach = reach_limits(self.state) if self.state.name != "planar" else None
+        self._cache_key: tuple | None = None
+        self._constraints: list[ArmConstraint] = []
 
     @property
     def constraints(self) -> list[ArmConstraint]:
-        return default_constraints(self.state, self.zones) + self.extra_constraints
+        """Built once, rebuilt when a zone, an extra constraint or ``reach`` is added, replaced or removed."""
+        key = (tuple(map(id, self.zones)), tuple(map(id, self.extra_constraints)), id(self.reach))
+        if key != self._cache_key:
+            self._constraints = default_constraints(self.state, self.zones, self.reach) + self.extra_constraints
+            self._cache_key = key
+        return self._constraints
 
     def reset(self) -> None:
         self.state.q = np.array(self.state.spec.home_q, dtype=float)
