@@ -54,6 +54,10 @@ class ArmConstraint:
     def distances(self, state: RobotState) -> np.ndarray:
         return self.measures(state).distance
 
+    def measures_and_distances(self, state: RobotState, activation_m: float) -> tuple[Measures, np.ndarray]:
+        """Both at once; constraints whose geometry is costly override it to compute it once."""
+        return self.measures(state, activation_m), self.distances(state)
+
 
 @dataclass(frozen=True)
 class JointPositionLimits(ArmConstraint):
@@ -135,12 +139,15 @@ class ZoneConstraint(ArmConstraint):
         return self.zone.name
 
     def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        return self.measures_and_distances(state, activation_m)[0]
+
+    def measures_and_distances(self, state: RobotState, activation_m: float) -> tuple[Measures, np.ndarray]:
         s = self.skip_capsules
         d, p_robot, u = self.zone.capsule_distances(state.capsule_p0[s:], state.capsule_p1[s:], state.capsule_radius[s:])
         keep = np.flatnonzero(d < activation_m)
         A = np.array([u[i] @ state.point_jacobian(s + i, p_robot[i]) for i in keep]).reshape(-1, state.nv)
         names = tuple(f"{self.zone.name} ({state.capsules[s + i].name})" for i in keep)
-        return Measures(d[keep], A, names, np.zeros(len(keep), dtype=bool))
+        return Measures(d[keep], A, names, np.zeros(len(keep), dtype=bool)), d
 
     def distances(self, state: RobotState) -> np.ndarray:
         s = self.skip_capsules

@@ -108,6 +108,13 @@ def all_measures(state: RobotState, constraints: list[ArmConstraint], activation
     return Measures.stack([c.measures(state, activation_m) for c in constraints], state.nv)
 
 
+def measures_and_distances(state: RobotState, constraints: list[ArmConstraint], activation_m: float) -> tuple[Measures, np.ndarray]:
+    """The active measures, and every constraint's distances (for the safety net), in one pass."""
+    pairs = [c.measures_and_distances(state, activation_m) for c in constraints]
+    distances = np.concatenate([d for _, d in pairs]) if pairs else np.zeros(0)
+    return Measures.stack([m for m, _ in pairs], state.nv), distances
+
+
 def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np.ndarray,
                      v_desired: np.ndarray, dt_s: float, params: ArmParams, hard: bool = False) -> HalfSpaces:
     """Half-spaces on the command from the measures and the joint velocity limits."""
@@ -165,7 +172,7 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
         v = v * params.max_speed_m_s / speed
     vk = v[axes]
     M, c = mapping(state, params, R_world_ee_ref)
-    measures = all_measures(state, constraints, params.activation_m)
+    measures, before = measures_and_distances(state, constraints, params.activation_m)
     binding: tuple[str, ...] = ()
     stopped = False
     if method == "anticipative":
@@ -207,7 +214,6 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
     q_before = state.q
     net_scale = 1.0
     if method != "off":
-        before = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
         state.q = state.integrate(qdot, dt_s)
         state.update()
         after = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)

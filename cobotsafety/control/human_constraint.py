@@ -71,9 +71,15 @@ class HumanCapsulesConstraint(ArmConstraint):
         return (self.pairs(state)[0] - self.critical_m).ravel()
 
     def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
+        return self.measures_and_distances(state, activation_m)[0]
+
+    def measures_and_distances(self, state: RobotState, activation_m: float) -> tuple[Measures, np.ndarray]:
         if self.radius.size == 0:
-            return Measures.empty(state.nv)
+            return Measures.empty(state.nv), np.zeros(0)
         d, pr, ph = self.pairs(state)
+        return self._measures(state, d, pr, ph), (d - self.critical_m).ravel()
+
+    def _measures(self, state: RobotState, d: np.ndarray, pr: np.ndarray, ph: np.ndarray) -> Measures:
         ci, hi = np.nonzero(d < self.activation_m)
         if ci.size == 0:
             return Measures.empty(state.nv)
