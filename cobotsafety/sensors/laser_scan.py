@@ -33,7 +33,14 @@ class LaserScan:
             raise ValueError("angle_increment must not be zero")
         if not 0.0 <= self.range_min < self.range_max:
             raise ValueError(f"need 0 <= range_min < range_max, got {self.range_min}, {self.range_max}")
+        if ranges is self.ranges:
+            ranges = ranges.copy()  # the scan owns its ranges: read-only, so ``valid`` stays true
+        ranges.flags.writeable = False
         object.__setattr__(self, "ranges", ranges)
+        with np.errstate(invalid="ignore"):
+            valid = np.isfinite(ranges) & (ranges > 0.0) & (ranges >= self.range_min) & (ranges <= self.range_max)
+        valid.flags.writeable = False
+        object.__setattr__(self, "_valid", valid)
 
     @property
     def angles(self) -> np.ndarray:
@@ -42,10 +49,8 @@ class LaserScan:
 
     @property
     def valid(self) -> np.ndarray:
-        """Shape (n,), True where the beam returned a usable range."""
-        r = self.ranges
-        with np.errstate(invalid="ignore"):
-            return np.isfinite(r) & (r > 0.0) & (r >= self.range_min) & (r <= self.range_max)
+        """Shape (n,), True where the beam returned a usable range (computed once, read-only)."""
+        return self._valid
 
     def points(self) -> np.ndarray:
         """Shape (k, 2), the valid returns in the scanner frame [m]."""
