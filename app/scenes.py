@@ -62,10 +62,12 @@ class ArmScene:
     def __init__(self, server: viser.ViserServer, robot_name: str | None = None):
         from cobotsafety.app.scene_arm import ArmView  # noqa: PLC0415
         from cobotsafety.arm.robots import DEFAULT_ROBOT  # noqa: PLC0415
-        from cobotsafety.arm.teleop import ArmTeleop  # noqa: PLC0415
+        from cobotsafety.control.teleop import HumanAwareTeleop  # noqa: PLC0415
 
         self.name = robot_name or DEFAULT_ROBOT
-        self.robot = ArmTeleop(self.name)  # raises UnknownRobotError listing the known names
+        # The human capsules of the replay are moving protection zones here (issue 5): the
+        # render loop hands each frame to ``robot.set_human``.
+        self.robot = HumanAwareTeleop(self.name)  # raises UnknownRobotError listing the known names
         self.view = ArmView(server, self.robot)
 
     def read(self, robot) -> dict:

@@ -75,7 +75,7 @@ class DemoApp:
         self._planar_label = PLANAR_SCENES[0]
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz))
         self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
-                                self.loop.gizmo, ssm_available=False)
+                                self.loop.gizmo, ssm_available=self.scene.dim == 3)
         self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
         self.human = HumanView(self.server)
         self.zones = ZoneEditor(self.server, self.loop, lambda: self.scene)
@@ -121,6 +121,10 @@ class DemoApp:
         @panel.mode.on_update
         def _(_event) -> None:
             loop.method = panel.mode.value
+
+        @panel.ssm.on_update
+        def _(_event) -> None:
+            self.apply_ssm()
 
         @panel.reset.on_click
         def _(_event) -> None:
@@ -213,6 +217,13 @@ class DemoApp:
         if message:
             logger.warning("%s", message)
 
+    def apply_ssm(self) -> None:
+        """The ``SSM`` checkbox onto the robot (3D arms only: the planar scene has no human layer)."""
+        with self.loop.lock:
+            robot = self.loop.robot
+            if hasattr(robot, "ssm"):
+                robot.ssm = bool(self.panel.ssm.value)
+
     def switch_scene(self, robot_name: str, planar_label: str = PLANAR_SCENES[0]) -> None:
         """Swap robot and view (robot selector, planar scene, Fig. 9); the loop keeps running.
 
@@ -241,6 +252,8 @@ class DemoApp:
                 self.history.clear()
                 for handle in (self.panel.planar_scene, self.panel.fig9):
                     handle.disabled = scene.dim != 2
+                self.panel.ssm.disabled = scene.dim != 3
+                self.apply_ssm()
                 self.panel.jog.options = ("+x", "-x", "+y", "-y") + (("+z", "-z") if scene.dim == 3 else ())
                 self.panel.robot.value = scene.name  # the selector follows (no-op from its own callback)
                 if scene.dim == 2:
@@ -261,6 +274,9 @@ class DemoApp:
             data = self.loop.read(scene.read)
             self.replay.advance(wall_dt_s)
             human = self.replay.capsules()
+            # The replayed human drives the arm's human constraint at the render rate; between
+            # frames the constraint extrapolates with the estimated human velocity.
+            self.loop.read(lambda robot: robot.set_human(human) if hasattr(robot, "set_human") else None)
             with self.server.atomic():
                 capsules = scene.render(snapshot, data)
                 closest = None if human is None else minimum_distance(*capsules, human)

@@ -154,6 +154,32 @@ def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
     return bool(np.all(after >= np.minimum(before, 0.0) - CROSSING_TOLERANCE_M))
 
 
+def integrate_with_safety_net(state: RobotState, qdot: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
+                              before: np.ndarray) -> float:
+    """Integrate ``qdot`` over ``dt_s`` (``state`` in place), scaled down by bisection if the
+    full step would cross a limitation that ``before`` (the constraints' distances now) shows
+    clear, or deepen one already violated. Returns the scale applied (1 = the full step)."""
+    q_before = state.q
+    state.q = state.integrate(qdot, dt_s)
+    state.update()
+    after = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
+    if _admissible(before, after):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(25):
+        mid = 0.5 * (low + high)
+        state.q = pin.integrate(state.model, q_before, qdot * mid * dt_s)
+        state.update()
+        after = np.concatenate([con.distances(state) for con in constraints])
+        if _admissible(before, after):
+            low = mid
+        else:
+            high = mid
+    state.q = pin.integrate(state.model, q_before, qdot * low * dt_s)
+    state.update()
+    return low
+
+
 def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
          params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
          last_qdot: np.ndarray | None = None) -> ArmStepInfo:
@@ -211,27 +237,10 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
     else:
         raise ValueError(f"method must be one of anticipative, stop, reactive, off; got {method!r}")
 
-    q_before = state.q
-    net_scale = 1.0
     if method != "off":
-        state.q = state.integrate(qdot, dt_s)
-        state.update()
-        after = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
-        if not _admissible(before, after):
-            low, high = 0.0, 1.0
-            for _ in range(25):
-                mid = 0.5 * (low + high)
-                state.q = pin.integrate(state.model, q_before, qdot * mid * dt_s)
-                state.update()
-                after = np.concatenate([con.distances(state) for con in constraints])
-                if _admissible(before, after):
-                    low = mid
-                else:
-                    high = mid
-            net_scale = low
-            state.q = pin.integrate(state.model, q_before, qdot * low * dt_s)
-            state.update()
+        net_scale = integrate_with_safety_net(state, qdot, dt_s, constraints, before)
     else:
+        net_scale = 1.0
         state.q = state.integrate(qdot, dt_s)
         state.update()
     command_full = np.zeros(3)

@@ -19,9 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
-
-from cobotsafety.arm.step import ArmParams, mapping
+from cobotsafety.arm.step import ArmParams, integrate_with_safety_net, mapping
 from cobotsafety.arm.teleop import ArmTeleop
 from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 from cobotsafety.control.human_velocity import HumanVelocityEstimator
@@ -112,10 +110,11 @@ class HumanAwareArm:
         ratio = float(np.max(np.abs(qdot) / vmax))
         if ratio > 1.0:
             qdot = qdot / ratio
-        q = pin.integrate(state.model, state.q, qdot * dt_s)
-        iq = state.limited_v[:, 0] if state.limited_v.size else np.zeros(0, dtype=int)
-        q[iq] = np.clip(q[iq], state.lower[iq], state.upper[iq])
-        state.q = q
-        state.update()
+        # The field knows only the human: the zones, the table, the reach and the joint limits
+        # hold through the same safety net as the other controllers (a step that would cross
+        # one is scaled down).
+        constraints = self.teleop.constraints
+        distances = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
+        integrate_with_safety_net(state, qdot, dt_s, constraints, distances)
         executed = (state.p_world_ee - before) / dt_s
         return StepReport(v_att, v_att, executed, state.p_world_ee.copy(), (), stopped)

@@ -1,0 +1,94 @@
+"""``HumanAwareTeleop``: the human-aware controllers behind the ``Teleoperated`` protocol.
+
+The user's desired velocity replaces paper 2's nominal path, so the demo and the trial tool
+can drive every controller of ``cobotsafety.control.controllers`` by hand:
+
+* ``anticipative``, ``stop``, ``reactive``: ``HumanAwareArm.step`` with that controller (the
+  human capsules as moving zones, the standard stop, paper 2's potential field); every other
+  limitation (joints, reach, table, protection zones) holds as in ``ArmTeleop``.
+* ``off``: no filtering at all, the human included (joint limits still clamp).
+
+``ssm = True`` adds the ISO/TS 15066 speed-and-separation layer to the three controllers.
+The human model arrives with ``set_human(HumanCapsules)`` at the sensors' rate; between
+frames the constraint extrapolates with the estimated human velocity. A stale frame with
+nobody in it (the sensors cannot tell) keeps the last model: a dropout never clears the human.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from cobotsafety.arm.robots import DEFAULT_ROBOT
+from cobotsafety.arm.step import ArmParams
+from cobotsafety.arm.teleop import default_zones
+from cobotsafety.control.controllers import CONTROLLERS, HumanAwareArm
+from cobotsafety.human.body import HumanCapsules
+from cobotsafety.teleop import METHODS, StepReport
+
+
+class HumanAwareTeleop:
+    """A 3D arm teleoperated next to a tracked human. ``zones=None``: ``ArmTeleop``'s demo cell."""
+
+    dim = 3
+
+    def __init__(self, robot: str = DEFAULT_ROBOT, zones: list | None = None, params: ArmParams | None = None,
+                 ssm: bool = False, **human_aware):
+        self.arm = HumanAwareArm(robot, zones=[], params=params, **human_aware)
+        self.arm.teleop.zones = zones if zones is not None else default_zones(self.state)
+        self.ssm = ssm
+        self.human_frame: HumanCapsules | None = None
+        """The last frame given to ``set_human`` that was used (None: nobody seen yet)."""
+
+    # ---- what the scene and the zone editor read ------------------------------------------
+    @property
+    def teleop(self):
+        return self.arm.teleop
+
+    @property
+    def state(self):
+        return self.arm.state
+
+    @property
+    def zones(self) -> list:
+        return self.arm.teleop.zones
+
+    @property
+    def constraints(self) -> list:
+        return self.arm.teleop.constraints
+
+    @property
+    def p_base_ee_m(self) -> np.ndarray:
+        return self.arm.teleop.p_base_ee_m
+
+    # ---- the human --------------------------------------------------------------------------
+    def set_human(self, human: HumanCapsules | None) -> None:
+        """The human now (robot base frame); ``None`` or an absent, fresh frame clears it."""
+        if human is None:
+            self.human_frame = None
+            self.arm.clear_human()
+            return
+        if not human.present and human.stale and self.human_frame is not None:
+            return  # the sensors cannot tell: keep the last (conservative) model
+        self.human_frame = human
+        if human.present:
+            self.arm.set_human(human.t_s, human.p0_b_m, human.p1_b_m, human.radius_m, human.names)
+        else:
+            self.arm.clear_human()
+
+    # ---- Teleoperated -----------------------------------------------------------------------
+    def reset(self) -> None:
+        self.arm.teleop.reset()
+
+    def step(self, v_desired_m_s: np.ndarray, dt_s: float, method: str = "anticipative") -> StepReport:
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        if method == "off":
+            report = self.arm.teleop.step(v_desired_m_s, dt_s, "off")
+            distance = self.arm.human.minimum(self.state)[0]
+        else:
+            assert method in CONTROLLERS
+            result = self.arm.step(v_desired_m_s, dt_s, method, self.ssm)
+            report, distance = result.report, result.min_distance_m
+        return dataclasses.replace(report, min_distance_m=float(distance) if np.isfinite(distance) else None)

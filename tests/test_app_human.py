@@ -1,0 +1,82 @@
+"""The demo's 3D scene with the replayed human as a moving protection zone, and the SSM checkbox."""
+
+import socket
+
+import numpy as np
+import pytest
+
+from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.geometry.capsule import capsule_distance
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def app():
+    demo = DemoApp(DemoConfig(scene="arm", port=free_port()))  # threads not started: driven by hand
+    yield demo
+    demo.server.stop()
+
+
+def separation(app, human) -> float:
+    """Oracle: the robot capsules but the base against the human, from the geometry."""
+    state = app.loop.robot.state
+    d, _, _ = capsule_distance(state.capsule_p0[1:, None], state.capsule_p1[1:, None], state.capsule_radius[1:, None],
+                               human.p0_b_m[None], human.p1_b_m[None], human.radius_m[None])
+    return float(d.min())
+
+
+def test_replayed_human_reaches_the_controller(app):
+    app.replay.playing = False
+    app.replay.seek(app.replay.duration_s / 2)
+    app.render_once()
+    app.loop.step_once()
+    human = app.replay.capsules()
+    assert human.present
+    report = app.loop.snapshot().report
+    assert report.min_distance_m == pytest.approx(separation(app, human), abs=1e-6)
+
+
+def test_ssm_checkbox_drives_the_robot_and_is_disabled_in_the_planar_scene(app):
+    assert not app.panel.ssm.disabled
+    app.panel.ssm.value = True
+    app.apply_ssm()
+    assert app.loop.robot.ssm is True
+    app.switch_scene("planar")
+    assert app.panel.ssm.disabled
+    app.switch_scene("ur5")
+    assert not app.panel.ssm.disabled and app.loop.robot.ssm is True
+    app.panel.ssm.value = False
+    app.apply_ssm()
+    assert app.loop.robot.ssm is False
+
+
+def test_the_arm_gives_way_to_the_replayed_human(app):
+    """Drive the hand at the human for 2 s of control time: the separation holds."""
+    app.switch_scene("panda")
+    app.loop.method = "anticipative"
+    app.replay.playing = False
+    app.loop.reset()
+    for t_s in np.arange(0.0, app.replay.duration_s, 0.1):  # the human paused 0.35-0.5 m away
+        app.replay.seek(t_s)
+        human = app.replay.capsules()
+        if human.present and 0.35 < separation(app, human) < 0.5:
+            break
+    else:
+        pytest.fail("the bundled recording never comes within 0.5 m of the home pose")
+    critical = app.loop.robot.arm.human.critical_m
+    app.render_once()
+    ee = app.loop.snapshot().p_base_ee_m
+    centre = (human.p0_b_m[0] + human.p1_b_m[0]) / 2
+    app.loop.set_gizmo_target(ee + 0.3 * (centre - ee) / np.linalg.norm(centre - ee))
+    distances = []
+    for _ in range(1000):
+        app.loop.step_once()
+        distances.append(app.loop.snapshot().report.min_distance_m)
+    app.loop.release_gizmo()
+    assert min(distances) >= critical - 1e-6
+    assert np.linalg.norm(app.loop.snapshot().p_base_ee_m - ee) > 0.02  # it did move toward them
