@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 
-from cobotsafety.arm.constraints import JointPositionLimits, ZoneConstraint
+from cobotsafety.arm.constraints import JointPositionLimits
 from cobotsafety.arm.teleop import ArmTeleop
 
 
@@ -20,11 +20,14 @@ def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.002) ->
     rng = np.random.default_rng(seed)
     teleop = ArmTeleop(robot)
     joints = JointPositionLimits()
-    zones = [ZoneConstraint(z, skip_capsules=1) for z in teleop.zones]
     state = teleop.state
 
     def distances():
-        return joints.distances(state), np.concatenate([z.distances(state) for z in zones])
+        # The zones' exact distances (not ``ZoneConstraint``'s bounded ones): the oracle.
+        s = 1  # the base link stands on the table and is not checked, as in the step
+        exact = [z.capsule_distances(state.capsule_p0[s:], state.capsule_p1[s:], state.capsule_radius[s:])[0]
+                 for z in teleop.zones]
+        return joints.distances(state), np.concatenate(exact)
 
     joint_before, zone_before = distances()
     counts = {"robot": robot, "steps": steps, "joint_crossings": 0, "zone_penetrations": 0,

@@ -74,6 +74,10 @@ class BoxZone:
     center: tuple[float, float, float]
     half_size: tuple[float, float, float]
 
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        """``(centre (3,), radius)`` [m] of the sphere through the corners: a cheap lower bound."""
+        return np.asarray(self.center, dtype=float), float(np.linalg.norm(self.half_size))
+
     def capsule_distances(self, p0, p1, radius):
         """Exact segment-box distance: the squared outside distance along a segment is a convex
         piecewise quadratic of the segment parameter, with pieces split where a coordinate
