@@ -23,6 +23,9 @@ from cobotsafety.teleop import METHODS, StepReport, Teleoperated
 
 logger = logging.getLogger(__name__)
 
+MAX_DT_S = 0.010
+"""Longest step the loop integrates [s] (the filters are tested for dt up to 10 ms)."""
+
 
 @dataclass(frozen=True)
 class LoopSettings:
@@ -207,17 +210,18 @@ class ControlLoop:
             return self._jog_m_s
         return np.zeros(dim)
 
-    def step_once(self) -> StepReport:
-        """One control period with the nominal ``dt_s``."""
+    def step_once(self, dt_s: float | None = None) -> StepReport:
+        """One control period of ``dt_s`` [s] (default: the nominal ``settings.dt_s``)."""
         s = self.settings
+        dt_s = s.dt_s if dt_s is None else float(dt_s)
         with self.lock:
             for hook in self.before_step:
                 hook(self._t_s)
-            v = guard_command(self.desired_velocity(), self._v_sent, s.dt_s, s.max_speed_m_s, s.max_accel_m_s2)
-            report = self._robot.step(v, s.dt_s, self._method)
+            v = guard_command(self.desired_velocity(), self._v_sent, dt_s, s.max_speed_m_s, s.max_accel_m_s2)
+            report = self._robot.step(v, dt_s, self._method)
             self._v_sent = v
             self._report = report
-            self._t_s += s.dt_s
+            self._t_s += dt_s
             self._steps += 1
             return report
 
@@ -252,11 +256,16 @@ class ControlLoop:
         last = None
         while not self._stop.is_set():
             now = clock()
+            elapsed = period
             if last is not None:
                 self.stats.add(now - last)
+                elapsed = now - last
             last = now
             try:
-                self.step_once()
+                # A period that overran (a slow 3D step, a busy machine) is integrated with the
+                # time that really passed, up to ``MAX_DT_S``: the robot keeps real time instead
+                # of moving in slow motion, and the filter's guarantees hold up to that step.
+                self.step_once(min(max(elapsed, period), MAX_DT_S))
             except Exception:  # noqa: BLE001 - the loop must survive a bad step; robot holds still
                 logger.exception("control step failed; commanding zero")
                 with self.lock:

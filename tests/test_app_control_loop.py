@@ -160,3 +160,38 @@ def test_thread_runs_and_survives_a_failing_hook_and_concurrent_inputs():
     finally:
         loop.stop()
     assert not loop.running
+
+
+class SlowRobot:
+    """A robot whose step takes 6 ms: the loop cannot hold 500 Hz with it."""
+
+    dim = 2
+
+    def __init__(self):
+        self.dts: list[float] = []
+
+    def reset(self) -> None:
+        pass
+
+    @property
+    def p_base_ee_m(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def step(self, v, dt_s, method="anticipative"):
+        time.sleep(0.006)
+        self.dts.append(dt_s)
+        return None
+
+
+def test_an_overrunning_loop_integrates_the_time_that_passed_up_to_10_ms():
+    robot = SlowRobot()
+    loop = ControlLoop(robot)
+    loop.start()
+    start = time.perf_counter()
+    time.sleep(0.6)
+    loop.stop()
+    wall = time.perf_counter() - start
+    dts = np.array(robot.dts)
+    assert dts.min() >= loop.settings.dt_s - 1e-12 and dts.max() <= 0.010 + 1e-12
+    assert np.median(dts) > 0.005  # not the nominal 2 ms: the robot keeps real time
+    assert dts.sum() == pytest.approx(wall, rel=0.25)

@@ -119,9 +119,9 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
                      v_desired: np.ndarray, dt_s: float, params: ArmParams, hard: bool = False) -> HalfSpaces:
     """Half-spaces on the command from the measures and the joint velocity limits."""
     normals = measures.A @ M
-    offset = measures.A @ c
-    if measures.rate is not None:  # limits that move by themselves (a walking human)
-        offset = offset + measures.rate
+    secondary = measures.A @ c
+    human = measures.rate if measures.rate is not None else 0.0  # limits that move by themselves
+    offset = secondary + human
     rate_desired = normals @ v_desired + offset
     width = np.where(measures.angular, params.damping_width_rad, params.damping_width_m) * (not hard)
     buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
@@ -131,10 +131,11 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     bound = np.where(d <= 0.0, -params.recovery_gain_per_s * d, -d / dt_s)
     damped = (width > 0) & (d > 0) & (d < width) & (rate_desired < 0)
     bound = np.where(damped, np.maximum(bound, d / np.where(width > 0, width, 1.0) * rate_desired), bound)
-    bound = bound - offset
-    # Never demand a separation rate above the maximum speed [m/s] (a human closing faster
-    # than the arm can retreat must not make a single limit infeasible on its own).
-    bound = np.minimum(bound, params.max_speed_m_s)
+    # Never demand of the arm a separation rate above the maximum speed [m/s] (a human closing
+    # faster than the arm can retreat must not make a single limit infeasible on its own). The
+    # cap is on the arm's own rate, before the null-space term is taken out: capping after it
+    # let a secondary task that drives a joint into its limit through (z1, wrist joint).
+    bound = np.minimum(bound - human, params.max_speed_m_s) - secondary
     # Joint velocity limits.
     vmax = state.model.velocityLimit * params.velocity_limit_scale
     vel_normals = np.vstack([M, -M])
@@ -148,6 +149,28 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     keep = all_bounds > -2.0 * params.max_speed_m_s * scale - 1e-12
     keep[normals.shape[0]:] = True
     return HalfSpaces(all_normals[keep], all_bounds[keep], tuple(n for n, k in zip(names, keep) if k))
+
+
+def secondary_scale(measures: Measures, c: np.ndarray, dt_s: float, params: ArmParams) -> float:
+    """The share in [0, 1] of the null-space term ``c`` to keep: by itself it may approach no
+    limitation faster than the step allows (``-d / dt`` outside the buffer; inside it, nothing).
+
+    The secondary task (orientation hold, joint centring) is a convenience: near a limitation
+    it gives way instead of asking the user's command to make up for it.
+    """
+    if not measures.distance.size:
+        return 1.0
+    ac = measures.A @ c
+    toward = ac < 0.0
+    if not np.any(toward):
+        return 1.0
+    buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
+    d = measures.distance - buffer
+    allowed = np.where(d > 0.0, -d / dt_s, 0.0)
+    if measures.rate is not None:
+        allowed = allowed - measures.rate
+    allowed = np.minimum(allowed, 0.0)[toward]
+    return float(np.clip(np.min(allowed / ac[toward]), 0.0, 1.0))
 
 
 def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
@@ -199,6 +222,7 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
     vk = v[axes]
     M, c = mapping(state, params, R_world_ee_ref)
     measures, before = measures_and_distances(state, constraints, params.activation_m)
+    c = c * secondary_scale(measures, c, dt_s, params)
     binding: tuple[str, ...] = ()
     stopped = False
     if method == "anticipative":

@@ -36,18 +36,23 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _arrow(page) -> tuple[float, float]:
+def _arrow(page, timeout_s: float = 30.0) -> tuple[float, float]:
+    """Screen position of the gizmo's x arrow; retried while software WebGL draws the scene."""
     from PIL import Image  # noqa: PLC0415
 
     page.mouse.move(5, 5)
-    image = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
-    mask = np.abs(image - GIZMO_X_RGB).sum(axis=2) < 30
-    mask[:, 780:] = False
-    mask[620:, :200] = False
-    ys, xs = np.nonzero(mask)
-    if xs.size == 0:
-        raise RuntimeError("gizmo not found on screen")
-    return float(xs.mean()), float(ys.mean())
+    deadline = time.perf_counter() + timeout_s
+    while True:
+        image = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+        mask = np.abs(image - GIZMO_X_RGB).sum(axis=2) < 30
+        mask[:, 780:] = False
+        mask[620:, :200] = False
+        ys, xs = np.nonzero(mask)
+        if xs.size:
+            return float(xs.mean()), float(ys.mean())
+        if time.perf_counter() > deadline:
+            raise RuntimeError("gizmo not found on screen")
+        time.sleep(0.5)
 
 
 def _first_frame_s(context, port: int) -> tuple[float, float]:
@@ -136,7 +141,7 @@ def run(args: argparse.Namespace) -> dict:
             app.loop.reset()
             app.loop.stats = LoopStats(window=int(args.seconds * app.config.rate_hz * 2))
             try:  # hold a drag so the scene streams while we measure
-                x, y = _arrow(page)
+                x, y = _arrow(page, timeout_s=10.0)
                 page.mouse.move(x, y)
                 page.mouse.down()
                 page.mouse.move(x - 40, y, steps=5)
