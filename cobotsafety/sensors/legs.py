@@ -18,6 +18,8 @@ are never legs.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from cobotsafety.sensors.laser_filters import moving_average
@@ -63,29 +65,30 @@ def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarra
     breaks = (np.diff(idx) > 1) | (np.abs(np.diff(ranges[idx])) >= jump_m)
     starts = np.concatenate([[0], np.flatnonzero(breaks) + 1])
     ends = np.concatenate([np.flatnonzero(breaks), [idx.size - 1]])
+    # Per cluster, scalar work in plain Python floats (a scan has a handful of clusters; numpy's
+    # per-call overhead on 2-vectors dominated this loop).
+    r_all, a_all, valid = ranges.tolist(), angles.tolist(), scan.valid.tolist()
     legs = []
-    for s, e in zip(starts, ends):
-        beams = idx[s:e + 1]
-        r = ranges[beams]
-        first, last = beams[0], beams[-1]
+    for s, e in zip(starts.tolist(), ends.tolist()):
+        first, last = int(idx[s]), int(idx[e])
         # Prominence: both neighbours farther by jump_m, or without a usable return.
         prominent = True
-        for neighbour in (first - 1, last + 1):
-            if 0 <= neighbour < n and scan.valid[neighbour] and ranges[neighbour] < max_range_m + jump_m:
-                edge_range = ranges[first] if neighbour < first else ranges[last]
-                if ranges[neighbour] - edge_range < jump_m:
+        for neighbour, edge_range in ((first - 1, r_all[first]), (last + 1, r_all[last])):
+            if 0 <= neighbour < n and valid[neighbour] and r_all[neighbour] < max_range_m + jump_m:
+                if r_all[neighbour] - edge_range < jump_m:
                     prominent = False
         if not prominent:
             continue
-        p_first = ranges[first] * np.array([np.cos(angles[first]), np.sin(angles[first])])
-        p_last = ranges[last] * np.array([np.cos(angles[last]), np.sin(angles[last])])
-        width = float(np.linalg.norm(p_last - p_first))
+        width = math.hypot(r_all[last] * math.cos(a_all[last]) - r_all[first] * math.cos(a_all[first]),
+                           r_all[last] * math.sin(a_all[last]) - r_all[first] * math.sin(a_all[first]))
         if not min_width_m <= width <= max_width_m:
             continue
+        beams = idx[s:e + 1]
+        r = ranges[beams]
         smoothed = moving_average(r, min(smoothing_beams, r.size))
         k = int(np.argmin(smoothed))
-        theta, rho = angles[beams[k]], smoothed[k] + leg_radius_m  # eq. 3
-        legs.append((rho * np.cos(theta), rho * np.sin(theta)))
+        theta, rho = a_all[int(beams[k])], float(smoothed[k]) + leg_radius_m  # eq. 3
+        legs.append((rho * math.cos(theta), rho * math.sin(theta)))
     return np.array(legs).reshape(-1, 2)
 
 
