@@ -151,6 +151,21 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     return HalfSpaces(all_normals[keep], all_bounds[keep], tuple(n for n, k in zip(names, keep) if k))
 
 
+def reactive_command(measures: Measures, M: np.ndarray, v: np.ndarray, params: ArmParams) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The ``reactive`` baseline: ``v`` plus a virtual spring pushing away from every limitation
+    closer than ``reactive_zone_m`` (stiffness ``reactive_stiffness_per_s``), along the
+    direction of the command that increases its distance fastest; and the names of those pushing."""
+    command, binding = np.array(v, dtype=float), ()
+    for a_row, d, name in zip(measures.A, measures.distance, measures.names):
+        if d < params.reactive_zone_m:
+            n = a_row @ M
+            norm2 = float(n @ n)
+            if norm2 > 1e-12:
+                command = command + params.reactive_stiffness_per_s * (params.reactive_zone_m - d) * n / norm2
+                binding += (name,)
+    return command, binding
+
+
 def secondary_scale(measures: Measures, c: np.ndarray, dt_s: float, params: ArmParams) -> float:
     """The share in [0, 1] of the null-space term ``c`` to keep: by itself it may approach no
     limitation faster than the step allows (``-d / dt`` outside the buffer; inside it, nothing).
@@ -246,13 +261,7 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
         hs = build_halfspaces(state, measures, M, c, vk, dt_s, params, hard=True)
         command = vk.copy()
         if method == "reactive":
-            for a_row, d, name in zip(measures.A, measures.distance, measures.names):
-                if d < params.reactive_zone_m:
-                    n = a_row @ M
-                    norm2 = float(n @ n)
-                    if norm2 > 1e-12:
-                        command = command + params.reactive_stiffness_per_s * (params.reactive_zone_m - d) * n / norm2
-                        binding += (name,)
+            command, binding = reactive_command(measures, M, vk, params)
         qdot = M @ command + c
         vmax = state.model.velocityLimit
         ratio = float(np.max(np.abs(qdot) / vmax))

@@ -5,7 +5,9 @@ can drive every controller of ``cobotsafety.control.controllers`` by hand:
 
 * ``anticipative``, ``stop``, ``reactive``: ``HumanAwareArm.step`` with that controller (the
   human capsules as moving zones, the standard stop, paper 2's potential field); every other
-  limitation (joints, reach, table, protection zones) holds as in ``ArmTeleop``.
+  limitation (joints, reach, table, protection zones) holds as in ``ArmTeleop``. ``reactive``
+  first adds ``ArmTeleop``'s spring away from those other limitations to the user's command
+  (paper 2's field knows only the human), then applies the field.
 * ``off``: no filtering at all, the human included (joint limits still clamp).
 
 ``ssm = True`` adds the ISO/TS 15066 speed-and-separation layer to the three controllers.
@@ -21,7 +23,7 @@ import dataclasses
 import numpy as np
 
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step import ArmParams
+from cobotsafety.arm.step import ArmParams, all_measures, mapping, reactive_command
 from cobotsafety.arm.teleop import default_zones
 from cobotsafety.control.controllers import CONTROLLERS, HumanAwareArm
 from cobotsafety.human.body import HumanCapsules
@@ -89,6 +91,24 @@ class HumanAwareTeleop:
             distance = self.arm.human.minimum(self.state)[0]
         else:
             assert method in CONTROLLERS
-            result = self.arm.step(v_desired_m_s, dt_s, method, self.ssm)
+            v, pushing = np.asarray(v_desired_m_s, dtype=float), ()
+            if method == "reactive":
+                v, pushing = self._spring_from_the_other_limitations(v)
+            result = self.arm.step(v, dt_s, method, self.ssm)
             report, distance = result.report, result.min_distance_m
+            if pushing:
+                report = dataclasses.replace(report, v_desired_m_s=np.asarray(v_desired_m_s, dtype=float),
+                                             binding=tuple(dict.fromkeys(pushing + report.binding)))
         return dataclasses.replace(report, min_distance_m=float(distance) if np.isfinite(distance) else None)
+
+    def _spring_from_the_other_limitations(self, v: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
+        """Paper 2's field repels from the human only; under teleoperation the ``reactive`` mode
+        also pushes away from the zones, table, reach and joint limits (``ArmTeleop``'s spring)
+        before the field, so it repels from every limitation as in the other scenes."""
+        if not np.all(np.isfinite(v)):
+            return np.zeros(3), ()
+        state, teleop = self.state, self.arm.teleop
+        others = [con for con in teleop.constraints if con is not self.arm.human]
+        measures = all_measures(state, others, teleop.params.activation_m)
+        M, _ = mapping(state, teleop.params, teleop.R_world_ee_ref)
+        return reactive_command(measures, M, v, teleop.params)
