@@ -219,6 +219,35 @@ def test_the_extended_reach_limit_holds_while_the_arm_stretches():
 def test_the_filter_alone_keeps_the_limits_and_the_safety_net_stays_a_backstop(robot):
     """z1's orientation hold once drove its wrist into the joint limit through a mis-placed cap
     (the net then scaled 34 % of the steps); the null-space term now gives way near limits."""
+    from cobotsafety.arm.invariant import run_invariant
+
     counts = run_invariant(robot, 3000)
     assert counts["joint_crossings"] == counts["zone_penetrations"] == counts["nan_steps"] == 0
     assert counts["safety_net_steps"] <= 0.01 * counts["steps"]
+
+
+@pytest.mark.parametrize("robot", ["panda", "ur5", "kinova", "planar"])
+def test_mapping_is_the_pseudo_inverse_and_its_secondary_term_moves_no_end_effector(robot):
+    """The compiled mapping against numpy: ``M = pinv(J)`` and ``J c = 0`` away from
+    singularities (damped below ``w_threshold``: smaller), ``|c_i|`` within half the speed limit."""
+    from cobotsafety.arm.step import task_axes
+
+    state = RobotState(robot)
+    params = ArmParams()
+    R_ref = state.R_world_ee.copy()
+    checked = 0
+    for _ in range(40):
+        state.q = pin.randomConfiguration(state.model)
+        state.update()
+        J = state.J_ee[task_axes(state)]
+        M, c = mapping(state, params, R_ref)
+        w = np.sqrt(max(np.linalg.det(J @ J.T), 0.0))
+        if w >= params.w_threshold:
+            np.testing.assert_allclose(M, np.linalg.pinv(J), atol=1e-9 * max(1.0, np.abs(M).max()))
+            np.testing.assert_allclose(J @ c, 0.0, atol=1e-9)  # damped, I - MJ is no exact projector
+            checked += 1
+        else:
+            assert np.linalg.norm(M, 2) <= np.linalg.norm(np.linalg.pinv(J, rcond=1e-12), 2) + 1e-9
+        assert np.all(np.abs(c) <= 0.5 * state.model.velocityLimit + 1e-12)
+        assert np.all(np.isfinite(M)) and np.all(np.isfinite(c))
+    assert checked >= 20

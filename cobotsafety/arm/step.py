@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from cobotsafety.arm.constraints import ArmConstraint, Measures
+from cobotsafety.arm.mapping_kernel import mapping_kernel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.constraint import HalfSpaces
 from cobotsafety.filter import project
@@ -80,28 +81,22 @@ def task_axes(state: RobotState) -> np.ndarray:
 
 
 def mapping(state: RobotState, params: ArmParams, R_world_ee_ref: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """``(M (nv, k), c (nv,))`` with ``qdot = M v + c``."""
-    J = state.J_ee[task_axes(state)]
-    JJt = J @ J.T
-    w = float(np.sqrt(max(np.linalg.det(JJt), 0.0)))
-    lam2 = params.damping_max**2 * (1.0 - w / params.w_threshold) ** 2 if w < params.w_threshold else 0.0
-    M = J.T @ np.linalg.inv(JJt + lam2 * np.eye(J.shape[0]))
-    N = np.eye(state.nv) - M @ J
-    secondary = np.zeros(state.nv)
-    if R_world_ee_ref is not None and state.name != "planar":
-        error = pin.log3(R_world_ee_ref @ state.R_world_ee.T)  # world-frame rotation error
-        JwN = state.J_ee_angular @ N
-        # Damped least squares: near a singularity the orientation task gives way smoothly.
-        secondary += JwN.T @ np.linalg.solve(JwN @ JwN.T + 0.01 * np.eye(3), params.orientation_gain_per_s * error)
+    """``(M (nv, k), c (nv,))`` with ``qdot = M v + c`` (arithmetic in ``mapping_kernel``)."""
+    J = np.ascontiguousarray(state.J_ee[task_axes(state)])
+    with_orientation = R_world_ee_ref is not None and state.name != "planar"
+    # World-frame rotation error of the end-effector; the orientation task's damped least
+    # squares gives way smoothly near a singularity.
+    error = pin.log3(R_world_ee_ref @ state.R_world_ee.T) if with_orientation else np.zeros(3)
+    centering = np.zeros(state.nv)
     if state.limited_v.size and params.centering_gain_per_s > 0:
         iq, iv = state.limited_v[:, 0], state.limited_v[:, 1]
         middle = 0.5 * (state.lower[iq] + state.upper[iq])
         span = state.upper[iq] - state.lower[iq]
-        secondary[iv] -= params.centering_gain_per_s * (state.q[iq] - middle) / np.maximum(span, 1e-6)
-    c = N @ secondary
+        centering[iv] = -params.centering_gain_per_s * (state.q[iq] - middle) / np.maximum(span, 1e-6)
     # The secondary task never takes more than half of any joint's speed limit.
-    ratio = float(np.max(np.abs(c) / (0.5 * state.model.velocityLimit)))
-    return M, c / ratio if ratio > 1.0 else c
+    return mapping_kernel(J, np.ascontiguousarray(state.J_ee_angular), np.asarray(error, dtype=float), centering,
+                          params.damping_max, params.w_threshold, params.orientation_gain_per_s,
+                          0.5 * state.model.velocityLimit, with_orientation)
 
 
 def all_measures(state: RobotState, constraints: list[ArmConstraint], activation_m: float) -> Measures:
