@@ -45,9 +45,15 @@ class Measures(NamedTuple):
 
 
 class ArmConstraint:
-    """Base class: ``measures(state, activation_m)`` returns the limitation's measures."""
+    """Base class: ``measures(state, activation_m)`` returns the limitation's measures.
+
+    ``distances`` are in metres of a point of the robot (1-Lipschitz in that point's position)
+    unless ``angular`` (radians of a joint); the safety net uses this to skip limits that a
+    step is too short to reach.
+    """
 
     name: str
+    angular = False
 
     def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
         raise NotImplementedError
@@ -65,6 +71,7 @@ class JointPositionLimits(ArmConstraint):
     """Every joint with finite limits stays within them (row i of ``M``: joint i's rate)."""
 
     name: str = "joint"
+    angular = True
 
     def measures(self, state: RobotState, activation_m: float = np.inf) -> Measures:
         pairs = state.limited_v

@@ -33,8 +33,19 @@ class RobotState:
         self.lower = model.lowerPositionLimit.copy()
         self.upper = model.upperPositionLimit.copy()
         self.limited_v = self._limited_velocity_indices()
+        self.lever_m = self._lever_bound_m()
         self.q = np.array(spec.home_q, dtype=float)
         self.update()
+
+    def _lever_bound_m(self) -> float:
+        """An upper bound [m] on how far any capsule end point or the end-effector moves per
+        radian (or metre) of any joint, in every configuration: the length of the kinematic
+        chain (joint offsets, then the farthest attached point), and at least 1 (prismatic)."""
+        model = self.model
+        chain = sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in range(1, model.njoints))
+        attached = [float(np.linalg.norm(model.frames[self.ee_frame_id].placement.translation))]
+        attached += [float(np.linalg.norm(p)) for p in (*self.capsule_p0_local, *self.capsule_p1_local)]
+        return max(1.0, chain + max(attached))
 
     def _limited_velocity_indices(self) -> np.ndarray:
         """Velocity indices of 1-dof joints with finite position limits (idx_q, idx_v) pairs."""

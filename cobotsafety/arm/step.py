@@ -103,11 +103,11 @@ def all_measures(state: RobotState, constraints: list[ArmConstraint], activation
     return Measures.stack([c.measures(state, activation_m) for c in constraints], state.nv)
 
 
-def measures_and_distances(state: RobotState, constraints: list[ArmConstraint], activation_m: float) -> tuple[Measures, np.ndarray]:
-    """The active measures, and every constraint's distances (for the safety net), in one pass."""
+def measures_and_distances(state: RobotState, constraints: list[ArmConstraint],
+                           activation_m: float) -> tuple[Measures, list[np.ndarray]]:
+    """The active measures, and each constraint's distances (for the safety net), in one pass."""
     pairs = [c.measures_and_distances(state, activation_m) for c in constraints]
-    distances = np.concatenate([d for _, d in pairs]) if pairs else np.zeros(0)
-    return Measures.stack([m for m, _ in pairs], state.nv), distances
+    return Measures.stack([m for m, _ in pairs], state.nv), [d for _, d in pairs]
 
 
 def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np.ndarray,
@@ -188,23 +188,36 @@ def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
 
 
 def integrate_with_safety_net(state: RobotState, qdot: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
-                              before: np.ndarray) -> float:
+                              before: list[np.ndarray]) -> float:
     """Integrate ``qdot`` over ``dt_s`` (``state`` in place), scaled down by bisection if the
-    full step would cross a limitation that ``before`` (the constraints' distances now) shows
-    clear, or deepen one already violated. Returns the scale applied (1 = the full step)."""
+    full step would cross a limitation that ``before`` (each constraint's distances now) shows
+    clear, or deepen one already violated. Returns the scale
+    applied (1 = the full step).
+
+    A limitation farther than the step can move any point (``state.lever_m`` times the summed
+    joint travel; the largest joint travel for joint limits) cannot be crossed and is not
+    re-evaluated.
+    """
     q_before = state.q
+    travel = np.abs(qdot) * dt_s
+    reach = {False: state.lever_m * float(travel.sum()) + CROSSING_TOLERANCE_M,
+             True: float(travel.max(initial=0.0)) + CROSSING_TOLERANCE_M}
+    checked = [(con, part) for con, part in zip(constraints, before)
+               if part.size and float(part.min()) <= reach[bool(con.angular)]]
+
+    def admissible() -> bool:
+        return all(_admissible(part, con.distances(state)) for con, part in checked)
+
     state.q = state.integrate(qdot, dt_s)
     state.update()
-    after = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
-    if _admissible(before, after):
+    if admissible():
         return 1.0
     low, high = 0.0, 1.0
     for _ in range(25):
         mid = 0.5 * (low + high)
         state.q = pin.integrate(state.model, q_before, qdot * mid * dt_s)
         state.update()
-        after = np.concatenate([con.distances(state) for con in constraints])
-        if _admissible(before, after):
+        if admissible():
             low = mid
         else:
             high = mid

@@ -114,7 +114,6 @@ class HumanAwareArm:
         # hold through the same safety net as the other controllers (a step that would cross
         # one is scaled down).
         constraints = self.teleop.constraints
-        distances = np.concatenate([con.distances(state) for con in constraints]) if constraints else np.zeros(0)
-        integrate_with_safety_net(state, qdot, dt_s, constraints, distances)
+        integrate_with_safety_net(state, qdot, dt_s, constraints, [con.distances(state) for con in constraints])
         executed = (state.p_world_ee - before) / dt_s
         return StepReport(v_att, v_att, executed, state.p_world_ee.copy(), (), stopped)
