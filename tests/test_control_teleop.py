@@ -79,7 +79,7 @@ def test_reactive_respects_the_protection_zones_it_does_not_know():
     robot = HumanAwareTeleop("panda", zones=[])
     p = robot.p_base_ee_m
     box = BoxZone("box", (p[0], p[1] + 0.3, p[2]), (0.1, 0.05, 0.08))
-    robot.teleop.zones = [box]
+    robot.zones = [box]
     human = human_beside(robot, offset=(0.0, 1.5, 0.0))  # far: only the zone matters
     zone = next(c for c in robot.constraints if getattr(c, "zone", None) is box)
     assert zone.distances(robot.state).min() > 0.05  # clear at the start

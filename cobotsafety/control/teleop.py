@@ -56,6 +56,10 @@ class HumanAwareTeleop:
     def zones(self) -> list:
         return self.arm.teleop.zones
 
+    @zones.setter
+    def zones(self, zones: list) -> None:
+        self.arm.teleop.zones = zones
+
     @property
     def constraints(self) -> list:
         return self.arm.teleop.constraints
