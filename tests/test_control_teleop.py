@@ -123,3 +123,18 @@ def test_nan_command_holds_still():
         report = robot.step(np.array([np.nan, 0.1, 0.0]), DT, method)
         assert np.all(np.isfinite(report.p_base_ee_m))
     assert np.linalg.norm(robot.p_base_ee_m - before) < 0.01
+
+
+def test_a_fast_human_never_makes_the_hand_flee_faster_than_the_speed_limit():
+    """Retreat rows of capsules near the base once asked the hand for ~2 m/s; the per-axis
+    speed rows cap it at ``max_speed_m_s`` per axis (the step approaches nothing instead)."""
+    robot = HumanAwareTeleop("panda")
+    limit = robot.teleop.params.max_speed_m_s
+    start = robot.state.capsule_p1[2] - np.array([0.0, 0.9, 0.0])  # beside the upper arm
+    fastest = 0.0
+    for i in range(300):
+        p = start + np.array([0.0, 1.5, 0.0]) * min(i * DT, 0.5)  # 1.5 m/s at the arm (2.2 m/s flight before)
+        robot.set_human(HumanCapsules([p + [0, 0, -0.4]], [p + [0, 0, 0.4]], [0.15], ("torso",), t_s=i * DT))
+        report = robot.step(np.zeros(3), DT, "anticipative")
+        fastest = max(fastest, float(np.abs(report.v_executed_m_s).max()))
+    assert fastest <= limit * 1.05  # first-order motion over a step: a few % of curvature

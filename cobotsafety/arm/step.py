@@ -133,9 +133,15 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
     bound = np.minimum(bound - human, params.max_speed_m_s) - secondary
     # Joint velocity limits.
     vmax = state.model.velocityLimit * params.velocity_limit_scale
-    vel_normals = np.vstack([M, -M])
-    vel_bounds = np.concatenate([-vmax - c, -vmax + c])
-    vel_names = tuple(f"velocity {i}" for i in range(2 * state.nv))
+    # And the end-effector's own speed, per axis: a retreat the limitations ask for (a human
+    # closing in on a capsule near the base) may not make the hand flee faster than the user
+    # may drive it; if that leaves the retreat infeasible, the step approaches nothing instead.
+    k = M.shape[1]
+    axes = "xyz"[:k]
+    vel_normals = np.vstack([M, -M, np.eye(k), -np.eye(k)])
+    vel_bounds = np.concatenate([-vmax - c, -vmax + c, np.full(2 * k, -params.max_speed_m_s)])
+    vel_names = (tuple(f"velocity {i}" for i in range(2 * state.nv)) + tuple(f"speed +{a}" for a in axes)
+                 + tuple(f"speed -{a}" for a in axes))
     all_normals = np.vstack([normals, vel_normals])
     all_bounds = np.concatenate([bound, vel_bounds])
     names = measures.names + vel_names
