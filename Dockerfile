@@ -12,6 +12,9 @@ RUN apt-get update -qq \
 WORKDIR /opt/cobotsafety
 COPY . .
 RUN python3 -m pip install -q -e ".[test]"
+# Compile and cache the numba kernels (capsule distance, arm mapping) now, not at first start.
+RUN python3 -c "import numpy as np; from cobotsafety.control.teleop import HumanAwareTeleop; \
+HumanAwareTeleop().step(np.zeros(3), 0.002)"
 
 EXPOSE 8080
 CMD ["cobotsafety", "demo", "--host", "0.0.0.0", "--port", "8080"]
