@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import math
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,6 +74,9 @@ class Recording:
         return float(max([self.laser_t_s[-1], *(t[-1] for t in self.imu_t_s.values())]))
 
 
+_NUMBER_TYPES = {int, float}
+
+
 def _refuse_constant(name: str):
     raise ValueError(f"{name} is not a number")
 
@@ -80,7 +84,7 @@ def _refuse_constant(name: str):
 def _numbers(where: str, value, shape_text: str, length: int | None = None) -> np.ndarray:
     if not isinstance(value, list) or (length is not None and len(value) != length):
         raise RecordingError(f"{where}: expected {shape_text}, got {str(value)[:60]}")
-    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
+    if not set(map(type, value)) <= _NUMBER_TYPES:  # JSON numbers only (bool is its own type)
         raise RecordingError(f"{where}: expected {shape_text} of numbers")
     array = np.array(value, dtype=float)
     if not np.isfinite(array).all():
@@ -90,7 +94,7 @@ def _numbers(where: str, value, shape_text: str, length: int | None = None) -> n
 
 def _quaternion(where: str, value) -> np.ndarray:
     q = _numbers(where, value, "[x, y, z, w]", 4)
-    norm = float(np.linalg.norm(q))
+    norm = math.hypot(*value)
     if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
         raise RecordingError(f"{where}: quaternion norm {norm:.6f} is not 1 (tolerance {QUATERNION_NORM_TOLERANCE})")
     return q / norm
