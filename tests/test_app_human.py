@@ -1,23 +1,16 @@
 """The demo's 3D scene with the replayed human as a moving protection zone, and the SSM checkbox."""
 
-import socket
-
 import numpy as np
 import pytest
 
 from cobotsafety.app.server import DemoApp, DemoConfig
 from cobotsafety.geometry.capsule import capsule_distance
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from cobotsafety.ports import free_local_port
 
 
 @pytest.fixture(scope="module")
 def app():
-    demo = DemoApp(DemoConfig(scene="arm", port=free_port()))  # threads not started: driven by hand
+    demo = DemoApp(DemoConfig(scene="arm", port=free_local_port()))  # threads not started: driven by hand
     yield demo
     demo.server.stop()
 

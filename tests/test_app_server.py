@@ -1,7 +1,5 @@
 """The demo server without a browser: scenes, highlight, gizmo return, replay refusal, URDF joints."""
 
-import socket
-
 import numpy as np
 import pytest
 
@@ -9,17 +7,12 @@ from cobotsafety.app import draw
 from cobotsafety.app.scene_arm import urdf_joint_values
 from cobotsafety.app.server import DemoApp, DemoConfig
 from cobotsafety.errors import RecordingError, UnknownRobotError
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from cobotsafety.ports import free_local_port
 
 
 @pytest.fixture(scope="module")
 def app():
-    demo = DemoApp(DemoConfig(port=free_port()))  # threads not started: steps are driven by hand
+    demo = DemoApp(DemoConfig(port=free_local_port()))  # threads not started: steps are driven by hand
     yield demo
     demo.server.stop()
 
@@ -81,7 +74,7 @@ def test_bad_replay_is_refused_with_the_loaders_message(tmp_path):
     bad = tmp_path / "bad.jsonl.gz"
     bad.write_bytes(b"nope")
     with pytest.raises(RecordingError, match="bad.jsonl.gz"):
-        DemoApp(DemoConfig(port=free_port(), replay=bad))
+        DemoApp(DemoConfig(port=free_local_port(), replay=bad))
 
 
 def test_uploaded_garbage_keeps_previous_replay(app):

@@ -8,7 +8,6 @@ as a user's drag does. Software WebGL is slow: generous timeouts, few tests.
 from __future__ import annotations
 
 import io
-import socket
 import tempfile
 import threading
 import time
@@ -18,6 +17,7 @@ import pytest
 from PIL import Image
 
 from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.ports import free_local_port
 
 pytestmark = pytest.mark.browser
 
@@ -30,15 +30,9 @@ GIZMO_X_RGB = np.array([249, 45, 104])
 TIMEOUT_MS = 90_000
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def app():
-    demo = DemoApp(DemoConfig(port=free_port())).start()
+    demo = DemoApp(DemoConfig(port=free_local_port())).start()
     yield demo
     demo.stop()
 

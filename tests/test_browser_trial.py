@@ -4,12 +4,12 @@ appears only behind the token; a trial started by the operator shows the colour 
 from __future__ import annotations
 
 import re
-import socket
 import tempfile
 import time
 
 import pytest
 
+from cobotsafety.ports import free_local_port
 from cobotsafety.trial.server import TrialServer
 
 pytestmark = pytest.mark.browser
@@ -20,16 +20,10 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--d
 CONDITION_WORDS = re.compile(r"anticipative|sliding|stop\b|reactive|condition", re.IGNORECASE)
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_participant_view_never_shows_the_condition(tmp_path):
     from playwright.sync_api import sync_playwright
 
-    server = TrialServer(tmp_path, ["P01", "P02"], seed=3, port=free_port()).start_server()
+    server = TrialServer(tmp_path, ["P01", "P02"], seed=3, port=free_local_port()).start_server()
     try:
         with sync_playwright() as playwright:
             context = playwright.chromium.launch_persistent_context(

@@ -12,6 +12,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
+from cobotsafety.ports import free_local_port
 from cobotsafety.trial.analysis import analyze
 from cobotsafety.trial.colour_task import ColourTask
 from cobotsafety.trial.log_store import LogStore, load
@@ -132,7 +133,7 @@ def test_trial_server_runs_a_trial_on_the_planar_and_the_3d_arm(tmp_path, robot)
     target, and the trial's progress follows."""
     from cobotsafety.trial.server import TrialServer
 
-    server = TrialServer(tmp_path, ["P01"], seed=0, port=_free_port(), robot=robot)
+    server = TrialServer(tmp_path, ["P01"], seed=0, port=free_local_port(), robot=robot)
     try:
         trial = server.start_next()
         assert trial is not None and server.current is not None
@@ -149,11 +150,3 @@ def test_trial_server_runs_a_trial_on_the_planar_and_the_3d_arm(tmp_path, robot)
         assert "target 2" in server.progress.content
     finally:
         server.server.stop()
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]

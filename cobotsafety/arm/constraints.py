@@ -162,8 +162,8 @@ class ZoneConstraint(ArmConstraint):
             d, p_robot, u = self.zone.capsule_distances(p0, p1, radius)
             return d, np.arange(len(d)), p_robot, u
         centre, sphere_radius = bounding()
-        d, _, _ = capsule_distance(p0, p1, radius, np.broadcast_to(centre, p0.shape), np.broadcast_to(centre, p0.shape),
-                                   np.full(len(radius), sphere_radius))
+        centres = np.broadcast_to(centre, p0.shape)  # same shapes: capsule_distance's no-broadcast path
+        d, _, _ = capsule_distance(p0, p1, radius, centres, centres, np.full(len(radius), sphere_radius))
         near = np.flatnonzero(d < exact_below_m)
         if near.size == 0:
             return d, near, np.zeros((0, 3)), np.zeros((0, 3))

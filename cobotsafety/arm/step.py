@@ -197,8 +197,7 @@ def integrate_with_safety_net(state: RobotState, qdot: np.ndarray, dt_s: float, 
                               before: list[np.ndarray]) -> float:
     """Integrate ``qdot`` over ``dt_s`` (``state`` in place), scaled down by bisection if the
     full step would cross a limitation that ``before`` (each constraint's distances now) shows
-    clear, or deepen one already violated. Returns the scale
-    applied (1 = the full step).
+    clear, or deepen one already violated. Returns the scale applied (1 = the full step).
 
     A limitation farther than the step can move any point (``state.lever_m`` times the summed
     joint travel; the largest joint travel for joint limits) cannot be crossed and is not

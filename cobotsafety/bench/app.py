@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import argparse
 import io
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+from cobotsafety.ports import free_local_port
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--no-first-run"]
@@ -28,12 +29,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--drags", type=int, default=10, help="drag-to-motion latency samples")
     parser.add_argument("--robot", default="planar",
                         help="scene for the loop-rate window: planar (default) or an arm name (panda, ur5, ...)")
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _arrow(page, timeout_s: float = 30.0) -> tuple[float, float]:
@@ -100,11 +95,11 @@ def run(args: argparse.Namespace) -> dict:
         context = playwright.chromium.launch_persistent_context(
             tempfile.mkdtemp(prefix="cobotsafety-bench-"), executable_path=args.chromium, headless=True,
             args=CHROMIUM_ARGS, viewport={"width": 1200, "height": 800})
-        status_s, frame_s = _first_frame_s(context, _free_port())
+        status_s, frame_s = _first_frame_s(context, free_local_port())
         result["startup_to_status_s"] = round(status_s, 2)
         result["startup_to_first_frame_s"] = round(frame_s, 2)
 
-        app = DemoApp(DemoConfig(port=_free_port())).start()
+        app = DemoApp(DemoConfig(port=free_local_port())).start()
         try:
             page = context.new_page()
             page.goto(app.url)

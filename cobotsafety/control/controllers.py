@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from cobotsafety.arm.step import ArmParams, integrate_with_safety_net, mapping
 from cobotsafety.arm.teleop import ArmTeleop
 from cobotsafety.control.human_constraint import HumanCapsulesConstraint
