@@ -1,0 +1,1 @@
+"""State estimation shared by the sensor pipeline and the human-aware control."""
