@@ -19,6 +19,23 @@ class Course:
     target_radius_m: float
     obstacles_m: tuple[tuple[tuple[float, float], ...], ...]
     height_m: float | None = None
+    start_m: tuple[float, float] | None = None
+    """Where the robot waits at the start [m] (the robot's home), for checks on the first route."""
+
+    def routes_m(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The straight routes (from, to) [m] between consecutive targets, from the start."""
+        points = ([self.start_m] if self.start_m is not None else []) + list(self.targets_m)
+        return [(np.asarray(a, dtype=float), np.asarray(b, dtype=float)) for a, b in zip(points, points[1:])]
+
+    def route_clearance_m(self, samples: int = 400) -> float:
+        """Smallest distance from any straight route to any triangle [m] (0 = a route crosses one)."""
+        best = np.inf
+        for a, b in self.routes_m():
+            for s in np.linspace(0.0, 1.0, samples):
+                p = a + s * (b - a)
+                for tri in self.obstacles_m:
+                    best = min(best, _point_triangle_distance(p, np.asarray(tri)))
+        return float(best)
 
     def reached(self, index: int, p_m: np.ndarray) -> bool:
         return float(np.linalg.norm(np.asarray(p_m)[:2] - self.targets_m[index])) <= self.target_radius_m
@@ -47,22 +64,31 @@ def _point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> float:
 
 
 def planar_course() -> Course:
-    """A Fig. 6-like course in the planar arm's workspace: targets around the base close to the
-    extended-reach circle (E, 0.57 m), with two triangles beside the straight routes."""
+    """A Fig. 6-like course in the planar arm's workspace (the demo scene, start (-0.2, 0.03) m).
+
+    Like paper 1's course, it makes the participant meet the workspace limits: driven straight,
+    the route start -> 1 cuts the joint-2 circle B around the base, 2 -> 3 cuts joint 1's lower
+    limit D (the end-effector cannot reach low angles close to the base), 3 -> 4 cuts circle B
+    again and 4 -> 5 the rectangular protection zone; targets 2, 5 and 6 lie within 2-6 cm of
+    the extended reach E. The two triangles sit 4-5 cm beside the straight routes 1 -> 2 and
+    5 -> 6: obstacles to steer around, never on the straight path (a test checks both).
+    """
     return Course(
         "planar",
-        ((-0.40, 0.15), (-0.30, 0.47), (0.05, 0.54), (0.33, 0.44), (0.50, 0.12)),
+        ((0.35, 0.25), (0.55, 0.0), (0.10, 0.19), (-0.45, 0.0), (-0.25, 0.48), (0.10, 0.50)),
         0.03,
-        (((-0.42, 0.30), (-0.36, 0.30), (-0.39, 0.36)), ((0.17, 0.44), (0.23, 0.44), (0.20, 0.50))),
+        (((0.47, 0.17), (0.53, 0.17), (0.50, 0.22)), ((-0.11, 0.40), (-0.05, 0.40), (-0.08, 0.445))),
+        start_m=(-0.2, 0.03),
     )
 
 
 def arm_course(height_m: float = 0.30) -> Course:
-    """The same kind of course for a 3D arm, in the horizontal plane ``z = height_m``."""
+    """The same kind of course for a 3D arm, in the horizontal plane ``z = height_m``; the
+    triangles sit 5 cm or more beside the straight routes (not reworked for the arm's limits)."""
     return Course(
         "arm",
         ((0.45, -0.30), (0.60, 0.0), (0.45, 0.30), (0.30, 0.10), (0.35, -0.15)),
         0.03,
-        (((0.52, -0.16), (0.58, -0.10), (0.50, -0.08)), ((0.50, 0.14), (0.56, 0.20), (0.48, 0.22))),
+        (((0.60, -0.24), (0.66, -0.18), (0.58, -0.16)), ((0.58, 0.16), (0.64, 0.22), (0.56, 0.24))),
         height_m,
     )

@@ -1,8 +1,10 @@
 """Run one trial on a ``Teleoperated`` robot: course, optional colour task, scoring.
 
 Completion time runs from the first motion to the last target; touching an obstacle scores
--3 and is logged with time and place (once per contact). Headless here (the simulated
-participant); the browser trial drives the same ``TrialRun`` from the gizmo.
+-3 and is logged with time and place (once per contact). The colour task runs from the start
+to the end of the trial (``TrialRun.tick_colour``); which stimuli count is
+``cobotsafety.trial.scoring``'s rule, applied in ``record`` (and again by the analysis).
+Headless here (the simulated participant); the browser trial drives the same ``TrialRun``.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import numpy as np
 
 from cobotsafety.trial.colour_task import COLOURS, ColourTask
 from cobotsafety.trial.course import Course
+from cobotsafety.trial.scoring import ANSWER_WINDOW_S, error_score, stimulus_scored
 
 OBSTACLE_POINTS = -3
 
@@ -40,7 +43,9 @@ class TrialRun:
         return np.array(self.course.targets_m[min(self.next_target, len(self.course.targets_m) - 1)])
 
     def update(self, t_s: float, p_m: np.ndarray, moving: bool) -> None:
-        """Advance the trial with the end-effector at ``p_m`` at time ``t_s``."""
+        """Advance the trial with the end-effector at ``p_m`` at time ``t_s`` (nothing once finished)."""
+        if self.finished:
+            return
         if self.started_s is None:
             if not moving:
                 return
@@ -57,24 +62,40 @@ class TrialRun:
             if self.next_target == len(self.course.targets_m):
                 self.finished_s = t_s
 
+    def tick_colour(self, t_s: float):
+        """Run the colour task between the start and the end of the trial; the new stimulus or None."""
+        if self.colour is None or self.started_s is None or self.finished:
+            return None
+        return self.colour.tick(t_s)
+
     def record(self, participant: str, condition: str, order: int, seed: int) -> dict:
-        colour_errors = []
-        response_times = []
-        if self.colour is not None:
-            for s in self.colour.stimuli:
-                if s.answer is None:
-                    colour_errors.append({"kind": "missed", "t_s": round(s.shown_s - (self.started_s or 0), 3), "points": -2})
-                elif not s.correct:
-                    colour_errors.append({"kind": "wrong", "t_s": round(s.shown_s - (self.started_s or 0), 3), "points": -1})
-            response_times = [round(x, 3) for x in self.colour.response_times_s()]
-        errors = self.errors + colour_errors
-        return {
+        """The log record; colour errors only for stimuli that count (``scoring``)."""
+        completion = None if self.finished_s is None else round(self.finished_s - self.started_s, 3)
+        colour_errors, response_times, stimuli = [], [], []
+        start = self.started_s if self.started_s is not None else 0.0
+        for s in (self.colour.stimuli if self.colour is not None else []):
+            shown = round(s.shown_s - start, 3)
+            scored = stimulus_scored(shown, completion)
+            stimuli.append({"shown_s": shown, "word": s.word, "ink": s.ink, "answer": s.answer,
+                            "answered_s": None if s.answered_s is None else round(s.answered_s - start, 3),
+                            "scored": scored})
+            if not scored:
+                continue
+            if s.answer is None:
+                colour_errors.append({"kind": "missed", "t_s": shown, "points": -2})
+            else:
+                response_times.append(round(s.answered_s - s.shown_s, 3))
+                if not s.correct:
+                    colour_errors.append({"kind": "wrong", "t_s": shown, "points": -1})
+        record = {
             "participant": participant, "condition": condition,
             "attention": "divided" if self.divided else "full", "order": order, "seed": seed,
-            "completion_time_s": None if self.finished_s is None else round(self.finished_s - self.started_s, 3),
-            "error_score": sum(e["points"] for e in errors), "errors": errors,
+            "completion_time_s": completion, "errors": self.errors + colour_errors,
             "response_times_s": response_times, "course": self.course.name,
+            "answer_window_s": ANSWER_WINDOW_S, "stimuli": stimuli,
         }
+        record["error_score"] = error_score(record)
+        return record
 
 
 def simulate_trial(robot, course: Course, participant, condition: str, divided: bool, seed: int,
@@ -82,7 +103,6 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
     """Run a whole trial with a ``SimulatedParticipant`` driving ``robot`` under ``condition``."""
     robot.reset()
     run = TrialRun(course, divided, seed)
-    pending = None
     t = 0.0
     while t < timeout_s and not run.finished:
         p = robot.p_base_ee_m
@@ -97,12 +117,11 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
         moving = bool(np.linalg.norm(report.v_executed_m_s) > 1e-3)
         participant.observe(t, moving)
         run.update(t, report.p_base_ee_m, moving=moving)
-        if run.colour is not None and run.started_s is not None:
-            shown = run.colour.tick(t)
-            if shown is not None:
-                answer, delay = participant.colour_answer(shown.ink, COLOURS)
-                pending = (t + delay, answer) if answer is not None else None
-            if pending is not None and t >= pending[0]:
-                run.colour.answer(t, pending[1])
-                pending = None
+        shown = run.tick_colour(t)
+        if shown is not None:
+            participant.colour_shown(t, shown.ink, COLOURS)
+        if run.colour is not None:
+            answer = participant.colour_response(t)
+            if answer is not None:
+                run.colour.answer(t, answer)
     return run, np.array(run.trajectory).reshape(-1, 4)
