@@ -72,29 +72,104 @@ def test_a_session_killed_mid_way_loses_nothing_already_finished(tmp_path):
     assert len(resumed.records) == 24 and resumed.problems == []
 
 
-def write_paper_like_logs(directory, seed=0):
-    """Completion times drawn from the paper's own means and SDs, n = 10 per condition."""
+def write_paper_like_logs(directory, seed=0, participants=10, learning=0.0):
+    """Completion times drawn from the paper's own means and SDs, n = 10 per condition; error
+    scores from Poisson(4.7) and Poisson(0.9) wrong answers in divided attention. Orders are
+    counterbalanced; ``learning`` makes each participant's second trial of a mode that much faster."""
     rng = np.random.default_rng(seed)
     store = LogStore(directory)
     stats = {("full", "stop"): (40.0, 6.3), ("full", "anticipative"): (31.9, 3.8),
              ("divided", "stop"): (63.4, 9.3), ("divided", "anticipative"): (43.2, 3.93)}
-    for i in range(10):
+    for i in range(participants):
+        first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
         for (attention, condition), (mean, sd) in stats.items():
-            score = -int(rng.poisson(4.7 if condition == "stop" else 0.9)) if attention == "divided" else 0
-            store.append({"participant": f"P{i:02d}", "condition": condition, "attention": attention, "order": 1,
-                          "seed": seed, "completion_time_s": float(rng.normal(mean, sd)), "error_score": score,
-                          "errors": [], "response_times_s": []}, np.zeros((2, 4)))
+            second = first.index(condition) == 1
+            order = (0 if attention == "full" else 2) + 1 + second
+            time_s = float(rng.normal(mean, sd)) * (1.0 - learning * second)
+            wrong = int(rng.poisson(4.7 if condition == "stop" else 0.9)) if attention == "divided" else 0
+            errors = [{"kind": "wrong", "t_s": 1.0 + 2.0 * k, "points": -1} for k in range(wrong)]
+            store.append({"participant": f"P{i:02d}", "condition": condition, "attention": attention, "order": order,
+                          "seed": seed, "completion_time_s": time_s, "error_score": -wrong,
+                          "errors": errors, "response_times_s": []}, np.zeros((2, 4)))
 
 
-def test_analysis_on_the_papers_numbers(tmp_path):
+def analyze_json(directory, capsys):
+    from cobotsafety.cli import main
+
+    assert main(["analyze", str(directory), "--json"]) == 0
+    return {(r["comparison"], r["test"]): r for r in json.loads(capsys.readouterr().out)}
+
+
+KEYS = {"comparison", "test", "n", "sliding_mean", "stop_mean", "p", "effect_size", "ci95"}
+TESTS = ("mann-whitney one-tailed", "wilcoxon signed-rank one-tailed")
+
+
+def test_analysis_on_the_papers_numbers(tmp_path, capsys):
     write_paper_like_logs(tmp_path)
-    report = analyze(tmp_path, tmp_path / "report")
-    rows = [line for line in report.splitlines() if line.startswith("| ") and "comparison" not in line]
-    assert len(rows) == 3  # full, divided, divided - full
-    p_values = [float(r.split("|")[-2]) for r in rows]
-    assert p_values[0] < 0.05 and p_values[1] < 0.05  # sliding faster in both modes
-    assert all(float(r.split("|")[4].strip(" %")) > 0 for r in rows[:2])  # same direction
-    assert (tmp_path / "report" / "times_full.png").exists() and (tmp_path / "report" / "times_divided.png").exists()
+    results = analyze_json(tmp_path, capsys)
+    assert all(set(r) == KEYS for r in results.values())
+    for attention in ("full", "divided"):
+        for test in TESTS:  # sliding faster, with both tests, in the paper's direction
+            r = results[f"{attention} attention: completion time [s]", test]
+            assert r["n"] == 10 and r["p"] < 0.05 and r["sliding_mean"] < r["stop_mean"]
+            assert r["effect_size"] > 0.5 and r["ci95"][1] < 0  # sliding - stop < 0
+            assert r["ci95"][0] <= r["sliding_mean"] - r["stop_mean"] <= r["ci95"][1]
+    for test in TESTS:
+        r = results["divided attention: error score [points]", test]
+        assert r["p"] < 0.05 and r["sliding_mean"] > r["stop_mean"]
+    report = (tmp_path / "report" / "report.md").read_text()
+    assert "| divided - full completion time [s] | wilcoxon signed-rank one-tailed | 10 |" in report
+    for name in ("times_full.png", "times_divided.png", "error_scores.png"):
+        assert (tmp_path / "report" / name).stat().st_size > 10_000
+
+
+def test_effect_sizes_match_a_count_over_all_pairs():
+    """Rank-biserial correlations against their definitions, counted pair by pair."""
+    from cobotsafety.trial.statistics import mann_whitney, signed_rank
+
+    rng = np.random.default_rng(3)
+    sliding, stop = rng.normal(30, 5, 9), rng.normal(36, 6, 9)
+    wins = sum(np.sign(b - a) for a in sliding for b in stop)  # stop slower = favours sliding
+    assert mann_whitney("t", sliding, stop, with_ci=False).effect_size == pytest.approx(wins / 81)
+    d = stop - sliding
+    ranks = {i: 1 + sum(abs(d[j]) < abs(d[i]) for j in range(9)) for i in range(9)}
+    expected = (sum(ranks[i] for i in range(9) if d[i] > 0) - sum(ranks[i] for i in range(9) if d[i] < 0)) / 45
+    assert signed_rank("t", sliding, stop, with_ci=False).effect_size == pytest.approx(expected)
+
+
+def test_the_order_check_finds_a_learning_effect(tmp_path, capsys):
+    write_paper_like_logs(tmp_path, seed=1, learning=0.35)
+    strong = analyze_json(tmp_path, capsys)
+    key = next(k for k in strong if k[0].startswith("order effect, full"))
+    assert strong[key]["p"] < 0.05
+    write_paper_like_logs(tmp_path / "none", seed=1, learning=0.0)
+    assert analyze_json(tmp_path / "none", capsys)[key]["p"] > strong[key]["p"]
+
+
+def test_too_few_data_are_reported_with_the_reason(tmp_path, capsys):
+    write_paper_like_logs(tmp_path, participants=1)
+    results = analyze_json(tmp_path, capsys)
+    r = results["full attention: completion time [s]", "mann-whitney one-tailed"]
+    assert r["p"] is None and r["n"] == 1
+    report = (tmp_path / "report" / "report.md").read_text()
+    assert "too few data: 1 sliding and 1 stop values (2 per group needed)" in report
+    assert "too few data: 1 participant(s) with both conditions (2 needed)" in report
+
+
+def test_power_of_the_papers_effect_with_both_tests():
+    from cobotsafety.trial.power import power
+
+    def study(k):
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as d:
+            write_paper_like_logs(d, seed=100 + k)
+            return load(d).records
+
+    rows = {(r.comparison, r.test): r for r in power(study(k) for k in range(20))}
+    for attention in ("full", "divided"):
+        for test in TESTS:
+            assert rows[f"{attention} attention: completion time [s]", test].power >= 0.9
 
 
 def test_bad_logs_are_reported_with_file_and_line_and_the_rest_is_analysed(tmp_path):
@@ -113,7 +188,7 @@ def test_bad_logs_are_reported_with_file_and_line_and_the_rest_is_analysed(tmp_p
     assert f"{log}:{len(lines)}: duplicate trial" in text
     assert f"{log}:2: trajectory file" in text
     report = analyze(tmp_path)
-    assert "corrupt line" in report and "| full attention" in report
+    assert "corrupt line" in report and "| full attention: completion time [s] | mann-whitney" in report
 
 
 def test_simulated_sessions_end_to_end(tmp_path):
@@ -123,6 +198,8 @@ def test_simulated_sessions_end_to_end(tmp_path):
     divided = [r for r in written if r["attention"] == "divided"]
     assert all(r["response_times_s"] for r in divided)
     assert all(not r["response_times_s"] for r in written if r["attention"] == "full")
+    scored = [r for r in written if r["attention"] == "divided"]
+    assert all(s["shown_s"] >= 0 for r in scored for s in r["stimuli"])
     report = analyze(tmp_path)
     assert "| full attention: completion time [s]" in report
 

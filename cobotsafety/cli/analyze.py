@@ -1,18 +1,29 @@
-"""``cobotsafety analyze DIR [--out DIR]``: the trial report (Markdown + PNGs)."""
+"""``cobotsafety analyze DIR [--out DIR] [--json]``: the trial report (Markdown + PNGs).
+
+``--json`` prints a JSON list, one object per comparison and test:
+``{"comparison", "test", "n", "sliding_mean", "stop_mean", "p", "effect_size", "ci95"}``
+(``p`` null when the data are too few for the test; the Markdown report says why).
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("directory", type=Path, help="folder holding trials.jsonl and the trajectories")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR", help="report folder (default DIR/report)")
+    parser.add_argument("--json", action="store_true", help="print the comparisons as a JSON list")
 
 
 def run(args: argparse.Namespace) -> int:
-    from cobotsafety.trial.analysis import analyze
+    from cobotsafety.trial.analysis import write_report
 
-    print(analyze(args.directory, args.out))
+    text, results = write_report(args.directory, args.out)
+    if args.json:
+        print(json.dumps([r.as_json() for r in results]))
+    else:
+        print(text)
     return 0

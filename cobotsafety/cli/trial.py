@@ -1,7 +1,9 @@
 """``cobotsafety trial``: run user trials in the browser, or headless with simulated participants.
 
 ``cobotsafety trial --participants P01,P02 --out DIR`` serves the participant view and prints
-the operator token; ``cobotsafety trial --simulate N --out DIR`` runs N simulated participants.
+the operator token; ``cobotsafety trial --simulate N --out DIR`` runs N simulated participants;
+``cobotsafety trial --simulate N --repeat K [--json]`` estimates the power of each comparison
+over K simulated studies of N participants (nothing is written).
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="plan and participant seed (recorded in the log)")
     parser.add_argument("--scene", choices=["planar", "arm"], default="planar")
     parser.add_argument("--robot", default="panda", help="3D arm for --scene arm (browser trial)")
+    parser.add_argument("--repeat", type=int, default=0, metavar="K",
+                        help="with --simulate N: K simulated studies, print how often each comparison is significant")
+    parser.add_argument("--json", action="store_true", help="with --repeat: print the power table as a JSON list")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,6 +42,16 @@ def run(args: argparse.Namespace) -> int:
                 time.sleep(1.0)
         except KeyboardInterrupt:
             server.stop()
+        return 0
+    if args.repeat:
+        import json
+
+        from cobotsafety.trial.power import simulated_power, table
+
+        if args.repeat < 1 or args.simulate < 1:
+            raise SystemExit("--repeat K needs K >= 1 and --simulate N with N >= 1")
+        rows = simulated_power(args.simulate, args.repeat, args.seed, args.scene)
+        print(json.dumps([r.as_json() for r in rows]) if args.json else table(rows))
         return 0
     from cobotsafety.trial.simulate import run_simulated_sessions
 

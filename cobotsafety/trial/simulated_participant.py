@@ -19,7 +19,9 @@ answers the colour task. Divided attention is modelled the way paper 1 explains 
 * **Dual-task cost.** Divided attention scales the drag speed by ``divided_speed_factor``
   in both conditions.
 
-Times in seconds, speeds in m/s; every parameter is a named field.
+Times in seconds, speeds in m/s; every parameter is a named field. ``from_population`` draws
+one person's parameters (the same in their four trials) from ``POPULATION``'s ranges, so
+simulated studies have between-participant spread; the ranges are assumptions, not data.
 """
 
 from __future__ import annotations
@@ -71,6 +73,14 @@ class SimulatedParticipant:
 
     def __post_init__(self):
         self.rng = np.random.default_rng(self.seed)
+
+    @classmethod
+    def from_population(cls, person_seed: int, trial_seed: int) -> "SimulatedParticipant":
+        """One person (parameters drawn from ``POPULATION`` with ``person_seed``) in one trial
+        (drag noise and colour answers drawn with ``trial_seed``)."""
+        rng = np.random.default_rng(person_seed)
+        drawn = {name: float(rng.uniform(low, high)) for name, (low, high) in POPULATION.items()}
+        return cls(seed=trial_seed, **drawn)
 
     # ---- what the participant sees -------------------------------------------------------
     def eyes_on_robot(self, t_s: float) -> bool:
@@ -152,3 +162,15 @@ class SimulatedParticipant:
             answer, self._pending = self._pending[1], None
             return answer
         return None
+
+
+#: Uniform ranges of the per-person parameters for ``SimulatedParticipant.from_population``.
+POPULATION: dict[str, tuple[float, float]] = {
+    "max_speed_m_s": (0.20, 0.30),
+    "reaction_delay_s": (0.15, 0.35),
+    "notice_stop_s": (0.2, 0.5),
+    "look_back_s": (0.25, 0.55),
+    "replan_s": (0.3, 0.8),
+    "colour_response_s": (0.6, 1.0),
+    "divided_speed_factor": (0.8, 1.0),
+}

@@ -1,0 +1,77 @@
+"""Power: how often each comparison comes out significant with N participants.
+
+``power(studies)`` runs ``statistics.compare_all`` (without bootstrap intervals) on each study's
+records and counts, per comparison and test, the studies with ``p < alpha``; a test that cannot
+run counts as not significant. ``simulated_power(N, K)`` feeds it K studies of N simulated
+participants (``cobotsafety trial --simulate N --repeat K``). The simulated participant is an
+assumption (see ``simulated_participant``): the numbers plan a study, they are not evidence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from cobotsafety.trial.statistics import compare_all
+
+
+@dataclass(frozen=True)
+class PowerRow:
+    comparison: str
+    test: str
+    participants: int
+    studies: int
+    power: float
+    """Fraction of the studies with p < alpha."""
+    median_p: float | None
+    mean_sliding: float | None
+    mean_stop: float | None
+
+    def as_json(self) -> dict:
+        return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
+
+
+def power(studies: Iterable[list[dict]], alpha: float = 0.05) -> list[PowerRow]:
+    """One row per (comparison, test), in ``compare_all``'s order."""
+    per_key: dict = {}
+    n_studies = 0
+    participants = 0
+    for records in studies:
+        n_studies += 1
+        participants = max(participants, len({r["participant"] for r in records}))
+        for r in compare_all(records, with_ci=False):
+            per_key.setdefault((r.comparison, r.test), []).append(r)
+    rows = []
+    for (comparison, test), results in per_key.items():
+        ps = [r.p for r in results if r.p is not None]
+        significant = sum(1 for p in ps if p < alpha)
+        means = [(r.sliding_mean, r.stop_mean) for r in results if r.sliding_mean is not None and r.stop_mean is not None]
+        rows.append(PowerRow(comparison, test, participants, n_studies, significant / n_studies,
+                             float(np.median(ps)) if ps else None,
+                             float(np.mean([m[0] for m in means])) if means else None,
+                             float(np.mean([m[1] for m in means])) if means else None))
+    return rows
+
+
+def simulated_power(participants: int, repeat: int, seed: int = 0, scene: str = "planar",
+                    alpha: float = 0.05) -> list[PowerRow]:
+    """``repeat`` simulated studies of ``participants`` each (study k uses seed ``seed + k``)."""
+    from cobotsafety.trial.simulate import simulated_study
+
+    studies = ([record for record, _ in simulated_study(participants, seed + k, scene)] for k in range(repeat))
+    return power(studies, alpha)
+
+
+def table(rows: list[PowerRow], alpha: float = 0.05) -> str:
+    if not rows:
+        return "no studies"
+    head = (f"Power with {rows[0].participants} participants over {rows[0].studies} simulated studies "
+            f"(share of studies with p < {alpha}):")
+    lines = [head, "", "| comparison | test | power | median p | sliding mean | stop mean |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        fmt = lambda x, d=2: "-" if x is None else f"{x:.{d}f}"  # noqa: E731
+        lines.append(f"| {r.comparison} | {r.test} | {100 * r.power:.0f} % | {'-' if r.median_p is None else f'{r.median_p:.2g}'} | "
+                     f"{fmt(r.mean_sliding)} | {fmt(r.mean_stop)} |")
+    return "\n".join(lines)
