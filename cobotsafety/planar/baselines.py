@@ -11,13 +11,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from cobotsafety.planar.arm import Kinematics
-
-if TYPE_CHECKING:
-    from cobotsafety.planar.step import PlanarScene, PlanarState
+from cobotsafety.planar.limitations import PlanarLimitation
 
 
 @dataclass(frozen=True)
@@ -30,16 +28,17 @@ class ReactiveParams:
     zone_width_rad: float = 0.15
 
 
-def reactive_command(scene: "PlanarScene", kin: Kinematics, vx: float, vy: float,
-                     state: "PlanarState") -> tuple[float, float, tuple[str, ...]]:
-    """Desired command plus the repulsion of every limitation whose zone it is in."""
-    params = scene.reactive
+def reactive_command(limitations: Sequence[PlanarLimitation], params: ReactiveParams, max_speed_m_s: float,
+                     kin: Kinematics, vx: float, vy: float, theta_dot_1: float,
+                     theta_dot_2: float) -> tuple[float, float, tuple[str, ...]]:
+    """Desired command [m/s] plus the repulsion of every limitation whose zone it is in; the
+    damper uses the joint rates of the last step [rad/s]. Output capped at 2 ``max_speed_m_s``."""
     # Velocity of the end-effector over the last step, for the damper.
-    last_vx = kin.j11 * state.theta_dot_1 + kin.j12 * state.theta_dot_2
-    last_vy = kin.j21 * state.theta_dot_1 + kin.j22 * state.theta_dot_2
+    last_vx = kin.j11 * theta_dot_1 + kin.j12 * theta_dot_2
+    last_vy = kin.j21 * theta_dot_1 + kin.j22 * theta_dot_2
     out_x, out_y = vx, vy
     pushing = []
-    for limitation in scene.limitations:
+    for limitation in limitations:
         for distance, gx, gy, name, angular in limitation.measures(kin):
             norm = math.hypot(gx, gy)
             if norm < 1e-12:
@@ -57,7 +56,7 @@ def reactive_command(scene: "PlanarScene", kin: Kinematics, vx: float, vy: float
                 out_y += push * ny
                 pushing.append(name)
     speed = math.hypot(out_x, out_y)
-    limit = 2.0 * scene.max_speed_m_s
+    limit = 2.0 * max_speed_m_s
     if speed > limit:
         out_x, out_y = out_x * limit / speed, out_y * limit / speed
     return out_x, out_y, tuple(pushing)

@@ -1,11 +1,15 @@
-"""Planar scenes: the demo scene with every limitation A-G, and Fig. 9's scenarios a and b.
+"""Planar scenes: the demo scene with every limitation A-G, Fig. 9's scenarios a and b, and a
+scene in which the Jacobian-conditioning safeguard of III.C.2 acts.
 
 Positions in metres in the base frame; the base is at the origin.
 """
 
 from __future__ import annotations
 
+import math
+
 from cobotsafety.planar.arm import PlanarArm
+from cobotsafety.planar.baselines import ReactiveParams
 from cobotsafety.planar.limitations import (
     CircleKeepIn,
     CircleKeepOut,
@@ -21,8 +25,11 @@ from cobotsafety.planar.step import PlanarScene
 
 #: Fig. 9's start position [m].
 FIG9_START_M = (-0.2, 0.03)
-#: Fig. 9's target, above the wall of zones [m].
-FIG9_TARGET_M = (-0.27, 0.30)
+#: Fig. 9's target [m]: beyond the base, so the straight drive meets joint 2's circle B first
+#: and slides along it toward the wall of zones standing on top of it.
+FIG9_TARGET_M = (0.22, 0.18)
+#: Fig. 9 (b)'s gap between circle B and the tip of the triangle [m].
+FIG9_GAP_M = 0.06
 BASE_RADIUS_M = 0.12
 INNER_REACH_RADIUS_M = 0.05
 EXTENDED_REACH_RADIUS_M = 0.57
@@ -52,18 +59,49 @@ def demo_scene(arm: PlanarArm | None = None) -> PlanarScene:
     return PlanarScene(arm, arm_limitations(arm) + zones, Damping(width_m=0.01, width_rad=0.05))
 
 
-def fig9_triangle() -> PolygonZone:
-    return PolygonZone("F triangle", ((-0.24, 0.12), (-0.10, 0.12), (-0.17, 0.22)))
+def joint_2_circle_radius_m(arm: PlanarArm) -> float:
+    """Radius of circle B [m]: the end-effector's distance from the base at joint 2's upper limit."""
+    l1, l2, c = arm.link_1_m, arm.link_2_m, math.cos(arm.theta_2_max_rad)
+    return math.sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * c)
 
 
-def fig9_scene(scenario: str, arm: PlanarArm | None = None) -> PlanarScene:
-    """Scenario ``a``: a bar joined to the triangle (no way through); ``b``: a 6 cm gap between
-    the bar and the triangle, through which the target can be reached."""
+def fig9_wall(scenario: str, arm: PlanarArm | None = None) -> list[PlanarLimitation]:
+    """A triangle standing point-down on top of circle B, and a bar above it (a wall across the
+    way to the target). ``a``: the triangle's tip touches B, so its left edge and B meet at an
+    angle (a V) and the robot sliding along B into it ends with two binding limitations, the
+    zero output of section III.A. ``b``: the tip is ``FIG9_GAP_M`` above B, a gap to slide through."""
     arm = arm or PlanarArm()
+    radius = joint_2_circle_radius_m(arm)
     if scenario == "a":
-        bar = RectangleZone("F bar", (-0.35, 0.145), (0.15, 0.025))
+        tip_y = radius - 0.01  # overlapping B by 1 cm: connected
     elif scenario == "b":
-        bar = RectangleZone("F bar", (-0.40, 0.145), (0.10, 0.025))
+        tip_y = radius + FIG9_GAP_M
     else:
         raise ValueError(f"scenario must be 'a' or 'b', got {scenario!r}")
-    return PlanarScene(arm, arm_limitations(arm) + [bar, fig9_triangle()])
+    top_y = tip_y + 0.15
+    triangle = PolygonZone("F triangle", ((-0.03, top_y), (0.0, tip_y), (0.03, top_y)))
+    bar = RectangleZone("F bar", (0.0, top_y + 0.07), (0.03, 0.07))
+    return [triangle, bar]
+
+
+def fig9_scene(scenario: str, arm: PlanarArm | None = None, reactive: ReactiveParams | None = None) -> PlanarScene:
+    """Scenario ``a``: the wall of zones joined to circle B (no way through); ``b``: a 6 cm gap
+    between B and the triangle, through which the target can be reached."""
+    arm = arm or PlanarArm()
+    return PlanarScene(arm, arm_limitations(arm) + fig9_wall(scenario, arm), reactive=reactive or ReactiveParams())
+
+
+#: The conditioning scene's arm: joint 2 may almost stretch and fold (sin(theta_2) down to 0.02).
+CONDITIONING_ARM = PlanarArm(theta_2_min_rad=0.02, theta_2_max_rad=3.12)
+
+
+def conditioning_scene(min_sin: float = 0.15) -> PlanarScene:
+    """Joint limits and the III.C.2 safeguard only (no reach circles A, C, E): with joint 2's
+    range [0.02, 3.12] rad, only ``Conditioning`` keeps sin(theta_2) >= ``min_sin``, i.e. the
+    end-effector inside r = 2 L cos(asin(min_sin) / 2) (0.598 m) and outside the folded circle."""
+    arm = CONDITIONING_ARM
+    return PlanarScene(arm, [
+        JointLimit("B joint 2", 2, arm.theta_2_min_rad, arm.theta_2_max_rad),
+        JointLimit("D joint 1", 1, arm.theta_1_min_rad, arm.theta_1_max_rad),
+        Conditioning(min_sin=min_sin),
+    ])

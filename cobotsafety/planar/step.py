@@ -107,7 +107,8 @@ def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene:
         vx, vy = (0.0, 0.0) if blocked else (vx_d, vy_d)
         binding, stopped = blocked, bool(blocked)
     elif method == "reactive":
-        vx, vy, binding = reactive_command(scene, kin, vx_d, vy_d, state)
+        vx, vy, binding = reactive_command(scene.limitations, scene.reactive, scene.max_speed_m_s, kin, vx_d, vy_d,
+                                           state.theta_dot_1, state.theta_dot_2)
     elif method == "off":
         vx, vy = vx_d, vy_d
     else:
