@@ -128,3 +128,58 @@ def test_baselines_do_not_import_the_step():
     imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
     imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
     assert "cobotsafety.planar.step" not in imported
+
+
+def _all_scenes():
+    from cobotsafety.planar.scenarios import conditioning_scene, fig9_scene
+
+    return [demo_scene(), fig9_scene("a"), fig9_scene("b"), conditioning_scene()]
+
+
+def test_distances_equal_the_measures_distances_on_random_states():
+    rng = np.random.default_rng(11)
+    for scene in _all_scenes():
+        arm = scene.arm
+        for _ in range(500):
+            t1 = rng.uniform(arm.theta_1_min_rad - 0.2, arm.theta_1_max_rad + 0.2)
+            t2 = rng.uniform(arm.theta_2_min_rad - 0.2, arm.theta_2_max_rad + 0.2)
+            full, light = Kinematics(arm, t1, t2), Kinematics(arm, t1, t2, jacobian=False)
+            for limitation in scene.limitations:
+                assert limitation.distances(light) == pytest.approx([m[0] for m in limitation.measures(full)],
+                                                                    abs=1e-15)
+                assert all(m[4] == limitation.angular for m in limitation.measures(full))
+
+
+def test_no_distance_moves_more_than_the_reach_bound_of_a_joint_step():
+    """The safety net skips limitations farther than (L1 + L2)|d theta_1| + L2 |d theta_2| (lengths)
+    or max |d theta_i| (angles): check that bound against the distances themselves."""
+    rng = np.random.default_rng(12)
+    for scene in _all_scenes():
+        arm = scene.arm
+        for _ in range(2000):
+            t1, t2 = rng.uniform(-0.6, 3.7), rng.uniform(0.02, 3.12)
+            d1, d2 = rng.normal(scale=rng.choice([1e-3, 1e-2, 0.1]), size=2)
+            a, b = Kinematics(arm, t1, t2, jacobian=False), Kinematics(arm, t1 + d1, t2 + d2, jacobian=False)
+            reach_m = (arm.link_1_m + arm.link_2_m) * abs(d1) + arm.link_2_m * abs(d2)
+            for limitation in scene.limitations:
+                bound = max(abs(d1), abs(d2)) if limitation.angular else reach_m
+                for before, after in zip(limitation.distances(a), limitation.distances(b)):
+                    assert abs(after - before) <= bound + 1e-12
+
+
+@pytest.mark.parametrize("method", ["anticipative", "stop", "reactive"])
+def test_the_reachable_only_safety_net_equals_the_full_one(method):
+    rng = np.random.default_rng(13)
+    nets = 0
+    for scene, home in zip(_all_scenes(), [(-0.2, 0.03)] * 3 + [(0.0, 0.45)]):
+        state = PlanarState(*scene.arm.inverse_kinematics(*home))
+        for i in range(2000):
+            if i % 50 == 0:  # large commands and long steps: the net acts on curved limitations
+                direction = rng.normal(size=2) * rng.choice([0.3, 2.0])
+            dt_s = rng.uniform(2e-3, 0.01)
+            fast, info = step(state, direction, dt_s, scene, method)
+            reference, ref_info = step(state, direction, dt_s, scene, method, reachable_only=False)
+            assert fast == reference and info == ref_info
+            nets += info.net_scale < 1.0
+            state = fast
+    assert method != "anticipative" or nets > 0  # the net did act in these runs

@@ -1,8 +1,10 @@
 """``cobotsafety bench planar``: one full planar step (limitations A-G, projection, integration).
 
 The demo scene configures every limitation of section II; the command alternates between a
-free motion and one that presses on a limitation, so the projection works. ``--invariant N``
-also runs N random steps (dt up to 10 ms) and counts crossings beyond 1e-9.
+free motion and one that presses on a limitation, so the projection works. The step is timed
+interleaved with the reference safety net (every limitation's full measures re-evaluated,
+``step(..., reachable_only=False)``), so ``ratio`` compares the two in the same run.
+``--invariant N`` also runs N random steps (dt up to 10 ms) and counts crossings beyond 1e-9.
 """
 
 from __future__ import annotations
@@ -13,14 +15,18 @@ import numpy as np
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", action="store_true", help='print {"name": "planar_step", "median_us": ...}')
+    parser.add_argument("--json", action="store_true",
+                        help='print {"name": "planar_step", "median_us": ..., "reference_net_median_us": ...}')
     parser.add_argument("--runs", type=int, default=20_000, help="timed steps (default 20000)")
     parser.add_argument("--invariant", type=int, default=0, metavar="N",
                         help="also run N random steps and count limitation crossings")
 
 
 def run(args: argparse.Namespace) -> dict:
-    from cobotsafety.bench.timing import median_us
+    import os
+    import time
+
+    from cobotsafety.bench.timing import machine_description
     from cobotsafety.planar.arm import Kinematics
     from cobotsafety.planar.scenarios import demo_scene
     from cobotsafety.planar.step import PlanarState, measures, step
@@ -32,12 +38,23 @@ def run(args: argparse.Namespace) -> dict:
     commands = [(0.05, 0.02), (0.2, -0.1)]
     state = {"i": 0}
 
-    def one_step():
+    def timed(reachable_only: bool) -> float:
         state["i"] += 1
-        step(start, commands[state["i"] & 1], 0.002, scene)
+        command = commands[state["i"] & 1]
+        begin = time.perf_counter_ns()
+        step(start, command, 0.002, scene, reachable_only=reachable_only)
+        return (time.perf_counter_ns() - begin) / 1e3
 
-    result = {"name": "planar_step", "median_us": round(median_us(one_step, runs=args.runs), 2),
-              "limitations": len(scene.limitations)}
+    for _ in range(200):  # warm-up
+        timed(True), timed(False)
+    fast, reference = np.empty(args.runs), np.empty(args.runs)
+    for i in range(args.runs):  # interleaved: both see the same machine load
+        fast[i], reference[i] = timed(True), timed(False)
+    result = {"name": "planar_step", "median_us": round(float(np.median(fast)), 2),
+              "reference_net_median_us": round(float(np.median(reference)), 2),
+              "ratio": round(float(np.median(fast) / np.median(reference)), 3),
+              "limitations": len(scene.limitations), "load_1min": round(os.getloadavg()[0], 2),
+              "machine": machine_description()}
     if args.invariant:
         rng = np.random.default_rng(0)
         s, crossings, worst, net = start, 0, 0.0, 0

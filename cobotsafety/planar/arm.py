@@ -44,7 +44,9 @@ class Kinematics:
     Attributes (floats): ``x, y`` end-effector [m]; ``elbow_x, elbow_y`` [m]; Jacobian
     ``j11 j12 j21 j22`` [m/rad] of the end-effector; its inverse ``k11 k12 k21 k22`` [rad/m]
     (``K = J^-1``, eq. 3); ``det`` [m^2]. Near a singularity ``k`` is the damped inverse
-    ``J^T (J J^T + lambda^2 I)^-1``, so it never blows up.
+    ``J^T (J J^T + lambda^2 I)^-1``, so it never blows up. With ``jacobian=False`` only the
+    angles and positions are set (the safety net's distance checks); reading ``j``/``k`` then
+    raises ``AttributeError``.
     """
 
     __slots__ = ("arm", "theta_1", "theta_2", "x", "y", "elbow_x", "elbow_y",
@@ -53,13 +55,15 @@ class Kinematics:
     #: Damping [m] of the inverse below which |det J| counts as singular.
     DAMPING_M = 1e-3
 
-    def __init__(self, arm: PlanarArm, theta_1: float, theta_2: float):
+    def __init__(self, arm: PlanarArm, theta_1: float, theta_2: float, jacobian: bool = True):
         self.arm, self.theta_1, self.theta_2 = arm, theta_1, theta_2
         l1, l2 = arm.link_1_m, arm.link_2_m
         c1, s1 = math.cos(theta_1), math.sin(theta_1)
         c12, s12 = math.cos(theta_1 + theta_2), math.sin(theta_1 + theta_2)
         self.elbow_x, self.elbow_y = l1 * c1, l1 * s1
         self.x, self.y = self.elbow_x + l2 * c12, self.elbow_y + l2 * s12
+        if not jacobian:
+            return
         self.j11, self.j12 = -l1 * s1 - l2 * s12, -l2 * s12
         self.j21, self.j22 = l1 * c1 + l2 * c12, l2 * c12
         det = self.j11 * self.j22 - self.j12 * self.j21

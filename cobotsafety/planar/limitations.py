@@ -44,8 +44,19 @@ class PlanarLimitation(Constraint):
 
     name: str
 
+    #: Whether the distances are angles [rad] (joint limits, conditioning) or lengths [m].
+    angular: bool = False
+
     def measures(self, kin: Kinematics) -> list[Measure]:
         raise NotImplementedError
+
+    def distances(self, kin: Kinematics) -> list[float]:
+        """The measures' signed distances only, in the same order (the safety net's check).
+
+        ``kin`` may be built with ``jacobian=False``. Overridden where that saves work; each
+        override equals ``[m[0] for m in self.measures(kin)]`` (tested).
+        """
+        return [m[0] for m in self.measures(kin)]
 
     def rows(self, kin: Kinematics, vx: float, vy: float, dt_s: float, damping: Damping,
              max_speed_m_s: float, out: list) -> None:
@@ -98,6 +109,9 @@ class CircleKeepOut(PlanarLimitation):
         r, ux, uy = _radial(kin.x, kin.y, *self.center_m)
         return [(r - self.radius_m, ux, uy, self.name, False)]
 
+    def distances(self, kin: Kinematics) -> list[float]:
+        return [math.hypot(kin.x - self.center_m[0], kin.y - self.center_m[1]) - self.radius_m]
+
 
 @dataclass(frozen=True)
 class CircleKeepIn(PlanarLimitation):
@@ -110,6 +124,9 @@ class CircleKeepIn(PlanarLimitation):
     def measures(self, kin: Kinematics) -> list[Measure]:
         r, ux, uy = _radial(kin.x, kin.y, *self.center_m)
         return [(self.radius_m - r, -ux, -uy, self.name, False)]
+
+    def distances(self, kin: Kinematics) -> list[float]:
+        return [self.radius_m - math.hypot(kin.x - self.center_m[0], kin.y - self.center_m[1])]
 
 
 @dataclass(frozen=True)
@@ -124,6 +141,7 @@ class JointLimit(PlanarLimitation):
     joint: int
     lower_rad: float
     upper_rad: float
+    angular = True
 
     def measures(self, kin: Kinematics) -> list[Measure]:
         theta, kx, ky = (kin.theta_1, kin.k11, kin.k12) if self.joint == 1 else (kin.theta_2, kin.k21, kin.k22)
@@ -131,6 +149,10 @@ class JointLimit(PlanarLimitation):
             (theta - self.lower_rad, kx, ky, f"{self.name} lower", True),
             (self.upper_rad - theta, -kx, -ky, f"{self.name} upper", True),
         ]
+
+    def distances(self, kin: Kinematics) -> list[float]:
+        theta = kin.theta_1 if self.joint == 1 else kin.theta_2
+        return [theta - self.lower_rad, self.upper_rad - theta]
 
 
 @dataclass(frozen=True)
@@ -214,6 +236,15 @@ class LinkCircleZone(PlanarLimitation):
             out.append((r - self.radius_m, gx, gy, f"{self.name} link {link}", False))
         return out
 
+    def distances(self, kin: Kinematics) -> list[float]:
+        cx, cy = self.center_m
+        out = []
+        for ax, ay, bx, by in ((0.0, 0.0, kin.elbow_x, kin.elbow_y), (kin.elbow_x, kin.elbow_y, kin.x, kin.y)):
+            ex, ey = bx - ax, by - ay
+            t = min(max(((cx - ax) * ex + (cy - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+            out.append(math.hypot(ax + t * ex - cx, ay + t * ey - cy) - self.radius_m)
+        return out
+
 
 @dataclass(frozen=True)
 class Conditioning(PlanarLimitation):
@@ -221,7 +252,11 @@ class Conditioning(PlanarLimitation):
 
     name: str = "conditioning"
     min_sin: float = 0.15
+    angular = True
 
     def measures(self, kin: Kinematics) -> list[Measure]:
         c2 = math.cos(kin.theta_2)
         return [(math.sin(kin.theta_2) - self.min_sin, c2 * kin.k21, c2 * kin.k22, self.name, True)]
+
+    def distances(self, kin: Kinematics) -> list[float]:
+        return [math.sin(kin.theta_2) - self.min_sin]

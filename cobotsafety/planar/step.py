@@ -9,9 +9,14 @@
 3. joint rates ``theta_dot = K v`` (K = J^-1, damped near singularities) and Euler
    integration in joint space (exact for joint limits);
 4. safety net: the half-spaces are exact for joint limits but only first-order for curved
-   Cartesian limits, so the new state is checked against every limitation and, if one was
+   Cartesian limits, so the new state is checked against the limitations and, if one was
    crossed (or an already violated one got deeper), the step is scaled down by bisection;
-   zero motion is always admissible. ``StepInfo.net_scale < 1`` says it acted.
+   zero motion is always admissible. ``StepInfo.net_scale < 1`` says it acted. Only the
+   limitations the step can reach are re-checked, and by their distances alone: every
+   distance is 1-Lipschitz in the motion of the arm's points (lengths) or of the joints
+   (angles; |d sin(theta_2)| <= |d theta_2|), and in one step no point of the arm moves more
+   than ``(L1 + L2) |d theta_1| + L2 |d theta_2|``, no joint more than ``max |d theta_i|``, so a
+   limitation farther than that cannot be crossed (as ``arm.step.integrate_with_safety_net``).
 """
 
 from __future__ import annotations
@@ -78,13 +83,12 @@ def measures(scene: PlanarScene, kin: Kinematics) -> list[Measure]:
     return [m for limitation in scene.limitations for m in limitation.measures(kin)]
 
 
-def _distances(scene: PlanarScene, kin: Kinematics) -> list[float]:
-    return [m[0] for m in measures(scene, kin)]
-
-
 def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene: PlanarScene,
-         method: str = "anticipative") -> tuple[PlanarState, StepInfo]:
-    """Advance the arm by one control period ``dt_s`` [s] under ``method``."""
+         method: str = "anticipative", reachable_only: bool = True) -> tuple[PlanarState, StepInfo]:
+    """Advance the arm by one control period ``dt_s`` [s] under ``method``.
+
+    ``reachable_only=False`` makes the safety net re-evaluate every limitation's full measures
+    (the reference the fast check is tested and benchmarked against)."""
     if len(v_desired) != 2:
         raise ValueError(f"v_desired must have 2 components, got {len(v_desired)}")
     if not dt_s > 0.0:
@@ -94,7 +98,8 @@ def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene:
     vx_d, vy_d = _clamp(float(v_desired[0]), float(v_desired[1]), scene.max_speed_m_s)
     binding: tuple[str, ...] = ()
     stopped = False
-    now = measures(scene, kin)
+    per_limitation = [limitation.measures(kin) for limitation in scene.limitations]
+    now = [m for ms in per_limitation for m in ms]
     rows: list = []
     if method == "anticipative":
         rows_from_measures(now, vx_d, vy_d, dt_s, scene.damping, scene.max_speed_m_s, rows)
@@ -119,21 +124,56 @@ def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene:
     if method == "off":
         new = _integrate(state, rate_1, rate_2, dt_s, 1.0, arm)
         return new, StepInfo(vx_d, vy_d, vx, vy, binding, stopped, 1.0)
-    before = [m[0] for m in now]
-    scale = 1.0
+    scale = integrate_with_safety_net(state, rate_1, rate_2, dt_s, scene, per_limitation, reachable_only)
     new = _integrate(state, rate_1, rate_2, dt_s, scale, arm)
-    if not _admissible(before, _distances(scene, Kinematics(arm, new.theta_1, new.theta_2))):
-        low, high = 0.0, 1.0
-        for _ in range(30):
-            mid = 0.5 * (low + high)
-            trial = _integrate(state, rate_1, rate_2, dt_s, mid, arm)
-            if _admissible(before, _distances(scene, Kinematics(arm, trial.theta_1, trial.theta_2))):
-                low = mid
-            else:
-                high = mid
-        scale = low
-        new = _integrate(state, rate_1, rate_2, dt_s, scale, arm)
     return new, StepInfo(vx_d, vy_d, vx * scale, vy * scale, binding, stopped, scale)
+
+
+def integrate_with_safety_net(state: PlanarState, rate_1: float, rate_2: float, dt_s: float, scene: PlanarScene,
+                              per_limitation: list[list[Measure]], reachable_only: bool = True) -> float:
+    """The largest scale in [0, 1] of the joint rates [rad/s] (1, else found by bisection) whose
+    step crosses no limitation that ``per_limitation`` (each limitation's measures now) shows
+    clear and deepens none already violated. Re-checks only the reachable limitations, by their
+    distances (``reachable_only=False``: all of them, by their full measures)."""
+    arm = scene.arm
+    if not reachable_only:
+        before_all = [m[0] for ms in per_limitation for m in ms]
+
+        def admissible(scale: float) -> bool:
+            kin = Kinematics(arm, state.theta_1 + rate_1 * scale * dt_s, state.theta_2 + rate_2 * scale * dt_s)
+            return _admissible(before_all, [m[0] for m in measures(scene, kin)])
+
+        return _bisect(admissible)
+    travel_1, travel_2 = abs(rate_1) * dt_s, abs(rate_2) * dt_s
+    reach_m = (arm.link_1_m + arm.link_2_m) * travel_1 + arm.link_2_m * travel_2 + CROSSING_TOLERANCE
+    reach_rad = max(travel_1, travel_2) + CROSSING_TOLERANCE
+    checked = []
+    for limitation, ms in zip(scene.limitations, per_limitation):
+        if ms and min(m[0] for m in ms) <= (reach_rad if limitation.angular else reach_m):
+            checked.append((limitation, [m[0] for m in ms]))
+    if not checked:
+        return 1.0
+
+    def admissible(scale: float) -> bool:
+        kin = Kinematics(arm, state.theta_1 + rate_1 * scale * dt_s, state.theta_2 + rate_2 * scale * dt_s,
+                         jacobian=False)
+        return all(_admissible(before, limitation.distances(kin)) for limitation, before in checked)
+
+    return _bisect(admissible)
+
+
+def _bisect(admissible) -> float:
+    """1 if the full step is admissible, else the largest admissible scale found by bisection."""
+    if admissible(1.0):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(30):
+        mid = 0.5 * (low + high)
+        if admissible(mid):
+            low = mid
+        else:
+            high = mid
+    return low
 
 
 def _integrate(state: PlanarState, rate_1: float, rate_2: float, dt_s: float, scale: float,
