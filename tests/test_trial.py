@@ -172,6 +172,19 @@ def test_power_of_the_papers_effect_with_both_tests():
             assert rows[f"{attention} attention: completion time [s]", test].power >= 0.9
 
 
+def test_paper_effect_power_grows_with_participants_and_the_signed_rank_needs_five():
+    from cobotsafety.trial.power import paper_power
+
+    def by_key(n):
+        return {(r.comparison, r.test): r.power for r in paper_power(n, 30, seed=5)}
+
+    four, ten = by_key(4), by_key(10)
+    key = ("divided attention: completion time [s]", "wilcoxon signed-rank one-tailed")
+    assert four[key] == 0.0  # 4 pairs: the smallest one-tailed p is 1/16
+    assert ten[key] >= 0.95
+    assert all(ten[k] >= four[k] for k in ten if not k[0].startswith("order"))
+
+
 def test_bad_logs_are_reported_with_file_and_line_and_the_rest_is_analysed(tmp_path):
     write_paper_like_logs(tmp_path)
     log = tmp_path / "trials.jsonl"

@@ -25,6 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeat", type=int, default=0, metavar="K",
                         help="with --simulate N: K simulated studies, print how often each comparison is significant")
     parser.add_argument("--json", action="store_true", help="with --repeat: print the power table as a JSON list")
+    parser.add_argument("--paper-effect", action="store_true",
+                        help="with --simulate N --repeat K: draw the studies from paper 1's means and SDs instead")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,11 +48,14 @@ def run(args: argparse.Namespace) -> int:
     if args.repeat:
         import json
 
-        from cobotsafety.trial.power import simulated_power, table
+        from cobotsafety.trial.power import paper_power, simulated_power, table
 
         if args.repeat < 1 or args.simulate < 1:
             raise SystemExit("--repeat K needs K >= 1 and --simulate N with N >= 1")
-        rows = simulated_power(args.simulate, args.repeat, args.seed, args.scene)
+        if args.paper_effect:
+            rows = paper_power(args.simulate, args.repeat, args.seed)
+        else:
+            rows = simulated_power(args.simulate, args.repeat, args.seed, args.scene)
         print(json.dumps([r.as_json() for r in rows]) if args.json else table(rows))
         return 0
     from cobotsafety.trial.simulate import run_simulated_sessions

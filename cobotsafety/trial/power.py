@@ -5,6 +5,10 @@ records and counts, per comparison and test, the studies with ``p < alpha``; a t
 run counts as not significant. ``simulated_power(N, K)`` feeds it K studies of N simulated
 participants (``cobotsafety trial --simulate N --repeat K``). The simulated participant is an
 assumption (see ``simulated_participant``): the numbers plan a study, they are not evidence.
+``paper_power(N, K)`` (``--paper-effect``) draws the studies from paper 1's own means and SDs
+instead (IV.A-B: times normal, colour errors Poisson with the reported mean scores), each value
+independent (the paper gives no within-person correlation, so pairing gains nothing here: a
+conservative estimate for the paired test).
 """
 
 from __future__ import annotations
@@ -62,6 +66,32 @@ def simulated_power(participants: int, repeat: int, seed: int = 0, scene: str = 
 
     studies = ([record for record, _ in simulated_study(participants, seed + k, scene)] for k in range(repeat))
     return power(studies, alpha)
+
+
+#: Paper 1's completion times (mean, SD) [s] and mean error scores [points], IV.A-B.
+PAPER_TIMES_S = {("full", "stop"): (40.0, 6.3), ("full", "anticipative"): (31.9, 3.8),
+                 ("divided", "stop"): (63.4, 9.3), ("divided", "anticipative"): (43.2, 3.93)}
+PAPER_DIVIDED_SCORES = {"stop": -4.7, "anticipative": -0.9}
+
+
+def paper_study(participants: int, seed: int) -> list[dict]:
+    """Records of one study drawn from the paper's numbers (orders alternate AB / BA)."""
+    rng = np.random.default_rng(seed)
+    records = []
+    for i in range(participants):
+        first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
+        for (attention, condition), (mean, sd) in PAPER_TIMES_S.items():
+            lost = int(rng.poisson(-PAPER_DIVIDED_SCORES[condition])) if attention == "divided" else 0
+            records.append({"participant": f"P{i + 1:02d}", "condition": condition, "attention": attention,
+                            "order": (1 if attention == "full" else 3) + first.index(condition),
+                            "completion_time_s": float(rng.normal(mean, sd)),
+                            "errors": [{"kind": "wrong", "t_s": 0.0, "points": -1}] * lost})
+    return records
+
+
+def paper_power(participants: int, repeat: int, seed: int = 0, alpha: float = 0.05) -> list[PowerRow]:
+    """``repeat`` studies of ``participants`` drawn from the paper's means and SDs."""
+    return power((paper_study(participants, seed + k) for k in range(repeat)), alpha)
 
 
 def table(rows: list[PowerRow], alpha: float = 0.05) -> str:
