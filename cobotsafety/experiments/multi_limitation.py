@@ -144,12 +144,12 @@ def plot(results: list[RunResult], out_dir: Path) -> list[Path]:
     styles = {"anticipative": ("tab:red", "--"), "reactive": ("tab:blue", "-"), "stop": ("k", ":")}
     for scenario in SCENARIOS:
         fig, ax = plt.subplots(figsize=(5, 4.5))
-        for zone in fig9_scene(scenario).limitations:
+        scene = fig9_scene(scenario)
+        for zone in scene.limitations:
             if isinstance(zone, RectangleZone):
                 ax.add_patch(Polygon(zone.vertices(), color="0.6"))
             elif isinstance(zone, PolygonZone):
                 ax.add_patch(Polygon(zone.vertices_m, color="0.6"))
-        scene = fig9_scene(scenario)
         ax.add_patch(Circle((0, 0), joint_2_circle_radius_m(scene.arm), fill=False, ls="-.", color="0.4",
                             label="B: joint 2 limit (circle)"))
         for result in results:
@@ -161,12 +161,12 @@ def plot(results: list[RunResult], out_dir: Path) -> list[Path]:
                     name += f" ({100 * w.zone_width_m:.1f} cm, {w.stiffness_per_s:.0f}/s)"
                 label = f"{name}: {'reached' if result.reached else 'stopped'}, max {result.max_binding} binding"
                 ax.plot(result.path_m[:, 0], result.path_m[:, 1], ls=ls, color=color, label=label)
-        ax.plot(*FIG9_START_M, "ko")
-        ax.plot(*FIG9_TARGET_M, "g*", ms=12)
+        ax.plot(*FIG9_START_M, "ko", label="start")
+        ax.plot(*FIG9_TARGET_M, "g*", ms=12, label="target")
         ax.set(xlim=(-0.3, 0.35), ylim=(-0.05, 0.5), aspect="equal", xlabel="x [m]", ylabel="y [m]",
-               title=f"Fig. 9 ({scenario}): end-effector paths, "
-                     f"{'zones joined to circle B' if scenario == 'a' else '6 cm gap between B and the triangle'}")
-        ax.legend(loc="lower left", fontsize=8)
+               title=f"Fig. 9 ({scenario}): end-effector paths\n"
+                     f"{'zones joined to circle B' if scenario == 'a' else '6 cm gap between circle B and the triangle'}")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), fontsize=7, ncol=2)
         path = out_dir / f"fig9_{scenario}.png"
         fig.savefig(path, dpi=120, bbox_inches="tight")
         plt.close(fig)
