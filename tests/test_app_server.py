@@ -30,10 +30,12 @@ def test_sliding_limitation_is_highlighted_and_gizmo_returns(app):
     report = app.loop.snapshot().report
     assert any(name.startswith("B joint 2") for name in report.binding)
     app.render_once()
-    node, _ = app.scene.view._limit_nodes["B joint 2"]
-    assert tuple(node.colors[0, 0]) == draw.HIGHLIGHT
-    other, colour = app.scene.view._limit_nodes["E extended reach"]
-    assert tuple(other.colors[0, 0]) == colour
+    normal, bright = app.scene.view._limit_nodes["B joint 2"]
+    assert bright.visible and not normal.visible  # highlight = a visibility toggle: reaches open tabs
+    assert tuple(bright.colors.reshape(-1, 3)[0]) == draw.HIGHLIGHT
+    other, other_bright = app.scene.view._limit_nodes["E extended reach"]
+    assert other.visible and not other_bright.visible
+    assert "B joint 2" in app.scene.view.active_limitations()
     app.loop.release_gizmo()
     for _ in range(300):
         app.loop.step_once()
