@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from cobotsafety.app import draw
 from cobotsafety.app import jog as jog_module
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
@@ -54,6 +55,9 @@ class DemoConfig:
 
 GIL_SWITCH_INTERVAL_S = 0.0005
 """Python's thread switch interval while the demo runs [s] (default 0.005)."""
+FIG9_MARKER_RADIUS_M = 0.035
+"""Radius of the ring marking the Fig. 9 target [m] (wider than the end-effector drawn on it)."""
+FIG9_MARKER_RGB = (40, 170, 60)
 FIG9_ARRIVED_M = 0.005
 """A scripted pull ends when the end-effector is this close to its target [m]."""
 
@@ -329,8 +333,9 @@ class DemoApp:
 
         self.switch_scene(PLANAR, PLANAR_SCENES[2])
         target = np.array([*FIG9_TARGET_M, 0.0])
-        self._target_marker = self.server.scene.add_icosphere(
-            "/planar/fig9_target", radius=0.018, color=(40, 170, 60), position=tuple(target), opacity=0.8)
+        ring = draw.polyline_segments(draw.circle_points(tuple(target[:2]), FIG9_MARKER_RADIUS_M, count=48))
+        self._target_marker = self.server.scene.add_line_segments(
+            "/planar/fig9_target", ring, FIG9_MARKER_RGB, thickness=0.005)
         self._scripted_target_m = target
         self._scripted_since_steps = self.loop.snapshot().steps
         self.loop.set_gizmo_target(target)
