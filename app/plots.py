@@ -63,15 +63,15 @@ class Plots:
         line = lambda label, colour, **kw: uplot.Series(label=label, stroke=colour, **{"width": 2, **kw})  # noqa: E731
         self.distance = server.gui.add_uplot(
             (empty, empty), (uplot.Series(label="t [s]"), line("distance [mm]", "#d62728")),
-            title=distance_title, aspect=2.0, scales=_scales(DISTANCE_RANGE_MM), axes=_axes("mm"))
+            title=distance_title, aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(DISTANCE_RANGE_MM), axes=_axes("mm"))
         self.speed = server.gui.add_uplot(
             (empty, empty, empty),
             (uplot.Series(label="t [s]"), line("commanded [mm/s]", "#1f77b4", dash=(8.0, 5.0), width=4),
              line("executed [mm/s]", "#2ca02c")),
-            title="End-effector speed", aspect=2.0, scales=_scales(SPEED_RANGE_MM_S), axes=_axes("mm/s"))
+            title="End-effector speed", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(SPEED_RANGE_MM_S), axes=_axes("mm/s"))
         self.rate = server.gui.add_uplot(
             (empty, empty), (uplot.Series(label="t [s]"), line("loop [Hz]", "#9467bd")),
-            title="Control-loop rate", aspect=2.0, scales=_scales((0.0, 1.25 * rate_hz)), axes=_axes("Hz"))
+            title="Control-loop rate", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales((0.0, 1.25 * rate_hz)), axes=_axes("Hz"))
 
     def push(self, history: PlotHistory) -> None:
         t = history.array("t_s")

@@ -107,8 +107,13 @@ class HumanView:
         if not self._visible:
             self.segment.visible = self.label.visible = False
 
-    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None) -> None:
-        """Move the capsules to ``human`` and show ``closest`` (from ``minimum_distance``)."""
+    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None,
+               refresh_text: bool = True) -> None:
+        """Move the capsules to ``human`` and show ``closest`` (from ``minimum_distance``).
+
+        ``refresh_text``: rewrite the label's value (the server does it in the frames that
+        refresh the status line, so the scene and the status always show the same number).
+        """
         present = self._visible and human is not None and human.present
         if present:
             bodies, wxyzs, scales, ends, end_scales = capsule_instances(human.p0_b_m, human.p1_b_m, human.radius_m)
@@ -129,5 +134,6 @@ class HumanView:
         distance_m, p_robot, p_human = closest
         self.segment.points = np.array([[p_robot, p_human]], dtype=np.float32)
         self.label.position = (p_robot + p_human) / 2.0
-        self.label.text = f"{distance_m * 1e3:.0f} mm"
+        if refresh_text or not self.label.visible:
+            self.label.text = f"{distance_m * 1e3:.0f} mm"
         self.segment.visible = self.label.visible = True

@@ -101,8 +101,10 @@ class PlanarView:
         self.teleop = teleop
         scene = server.scene
         scene.set_up_direction("+z")
-        server.initial_camera.position = (0.0, -0.05, 1.9)
-        server.initial_camera.look_at = (0.0, 0.1, 0.0)
+        # Top-down, close enough that the reach circle fills most of the canvas height, shifted
+        # so the workspace sits left of the control panel.
+        server.initial_camera.position = (0.15, -0.01, 1.0)
+        server.initial_camera.look_at = (0.15, 0.0, 0.0)
         self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
                                    position=(0.0, 0.0, -0.002))
         arm = teleop.scene.arm

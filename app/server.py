@@ -368,6 +368,8 @@ class DemoApp:
         return minimum_distance(p0[skip:], p1[skip:], radius[skip:], human)
 
     def render_once(self, wall_dt_s: float = 0.0) -> None:
+        self.frames += 1
+        status_frame = self.frames % 6 == 0  # status (and the scene's distance label) at ~5 Hz
         with self._switching:
             scene = self.scene
             snapshot = self.loop.snapshot()
@@ -382,17 +384,16 @@ class DemoApp:
             with self.server.atomic():
                 capsules = scene.render(snapshot, data)
                 closest = self.display_distance(capsules, human)
-                self.human.update(human, closest)
+                self.human.update(human, closest, refresh_text=status_frame)
                 if self._dragging_client is None:  # nobody holds it: the gizmo rides with the end-effector
                     if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
                         self.gizmo.position = tuple(snapshot.p_base_ee_m)
         report = snapshot.report
         min_distance = None if closest is None else closest[0]
         self.last_min_distance_m = min_distance
-        self.frames += 1
         if self.frames % 3 == 0:  # plot samples at ~10 Hz
             self.history.add(snapshot, min_distance)
-        if self.frames % 6 == 0:  # status at ~5 Hz
+        if status_frame:
             ssm = bool(self.panel.ssm.value) if scene.dim == 3 else None
             text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
                                report.binding if report is not None else (), snapshot.p_base_ee_m,

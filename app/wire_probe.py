@@ -101,3 +101,35 @@ class WireProbe:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
+
+
+def main(url: str, clients: int, warmup_s: float, seconds: float) -> None:
+    """Run ``clients`` probes against ``url`` in this process (not the server's) and print JSON.
+
+    Prints ``ready`` once every probe is connected and ``warmup_s`` has passed (the counting
+    window starts then), and one JSON list of ``counts()`` (without per-node names) at the end.
+    """
+    import json  # noqa: PLC0415
+
+    probes = [WireProbe(url).start() for _ in range(clients)]
+    time.sleep(warmup_s)
+    for probe in probes:
+        probe.reset()
+    print("ready", flush=True)
+    time.sleep(seconds)
+    counts = [probe.counts() for probe in probes]
+    for probe in probes:
+        probe.stop()
+    print(json.dumps([{key: value for key, value in c.items() if key != "names"} for c in counts]), flush=True)
+
+
+if __name__ == "__main__":
+    import argparse  # noqa: PLC0415
+
+    parser = argparse.ArgumentParser(description="count what a viser server sends to N clients")
+    parser.add_argument("url")
+    parser.add_argument("--clients", type=int, default=1)
+    parser.add_argument("--warmup", type=float, default=2.0, help="seconds before counting [s]")
+    parser.add_argument("--seconds", type=float, default=10.0, help="counting window [s]")
+    arguments = parser.parse_args()
+    main(arguments.url, arguments.clients, arguments.warmup, arguments.seconds)

@@ -93,13 +93,16 @@ def _first_frame_s(context, port: int) -> tuple[float, float]:
 
 
 def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
-    """One measurement window: ``clients`` counting clients, idle or moving; loop and wire figures."""
+    """One measurement window: ``clients`` counting clients, idle or moving; loop and wire figures.
+
+    The counting clients run in a separate process (``python -m cobotsafety.app.wire_probe``),
+    as browsers would: they do not share the server's interpreter.
+    """
+    import json  # noqa: PLC0415
     import threading  # noqa: PLC0415
 
     from cobotsafety.app.control_loop import LoopStats  # noqa: PLC0415
-    from cobotsafety.app.wire_probe import WireProbe  # noqa: PLC0415
 
-    probes = [WireProbe(app.url).start() for _ in range(clients)]
     app.loop.reset()
     app.replay.seek(0.0)
     app.replay.playing = moving
@@ -115,22 +118,24 @@ def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
     puller = threading.Thread(target=pull, daemon=True) if moving else None
     if puller is not None:
         puller.start()
-    time.sleep(2.0)  # the clients' initial scene backlog is not part of the steady state
-    for probe in probes:
-        probe.reset()
-    app.loop.stats = LoopStats(window=int(seconds * app.config.rate_hz * 2))
-    frames = app.frames
-    time.sleep(seconds)
-    stats = app.loop.stats.summary()
-    counts = [probe.counts() for probe in probes]
-    frames = app.frames - frames
-    stop.set()
+    probes = subprocess.Popen([sys.executable, "-m", "cobotsafety.app.wire_probe", app.url, "--clients",
+                               str(clients), "--warmup", "3", "--seconds", str(seconds)],
+                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        if probes.stdout.readline().strip() != "ready":  # the initial scene backlog is not steady state
+            raise RuntimeError("wire probes did not start")
+        app.loop.stats = LoopStats(window=int(seconds * app.config.rate_hz * 2))
+        frames = app.frames
+        counts = json.loads(probes.stdout.readline())
+        stats = app.loop.stats.summary()
+        frames = app.frames - frames
+    finally:
+        probes.wait(timeout=60)
+        stop.set()
     if puller is not None:
         puller.join()
     app.loop.release_gizmo()
     app.replay.playing = False
-    for probe in probes:
-        probe.stop()
     mesh_per_s = [c["types"].get("MeshMessage", 0) / c["seconds"] for c in counts]
     return {"clients": clients, "state": "moving" if moving else "idle",
             "kB_per_s_per_client": round(float(np.mean([c["bytes_per_s"] for c in counts])) / 1e3, 1),
