@@ -74,6 +74,31 @@ def without_server_paths(message: str, path: Path) -> str:
     return re.sub(r"/(?:tmp|var|root|home)/\S*", "<file>", message)
 
 
+class RepeatedWarningFilter(logging.Filter):
+    """Let one log message template through at most once per ``interval_s`` [s].
+
+    The filter's "stopped the robot" warning can fire at every 1 kHz step while a person stands
+    in the arm; the demo's terminal shows it once per interval instead.
+    """
+
+    def __init__(self, interval_s: float = 5.0):
+        super().__init__()
+        self.interval_s = interval_s
+        self._last_s: dict[str, float] = {}
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        now = time.monotonic()
+        key = str(record.msg)
+        if now - self._last_s.get(key, -np.inf) < self.interval_s:
+            return False
+        self._last_s[key] = now
+        return True
+
+
+REPEAT_FILTER = RepeatedWarningFilter()
+logging.getLogger("cobotsafety.filter").addFilter(REPEAT_FILTER)
+
+
 def supported_robots() -> tuple[str, ...]:
     """``planar`` plus the arm names of ``cobotsafety.arm`` once its ``ArmTeleop`` exists."""
     try:
