@@ -38,6 +38,9 @@ class PlotHistory:
                         ("t_s", "min_distance_m", "speed_commanded_m_s", "speed_executed_m_s", "rate_hz")}
 
     def add(self, snapshot: LoopSnapshot, min_distance_m: float | None) -> None:
+        times = self.columns["t_s"]
+        if times and snapshot.t_s < times[-1]:  # time went back (reset, robot switch): a new trace
+            self.clear()
         report = snapshot.report
         commanded = float(np.linalg.norm(report.v_commanded_m_s)) if report is not None else 0.0
         executed = float(np.linalg.norm(report.v_executed_m_s)) if report is not None else 0.0

@@ -428,7 +428,7 @@ class DemoApp:
                 text += f"  \n**sensor stale**: {human.reason}"
             if text != self.panel.status.content:
                 self.panel.status.content = text
-            if self.replay.playing:
+            if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere
                 self.panel.seek_s.value = round(min(self.replay.time_s, self.panel.seek_s.max), 2)
         if self.frames % 15 == 0:  # plots at ~2 Hz
             self.plots.push(self.history)

@@ -54,8 +54,13 @@ def panda_human(context, out: Path) -> None:
         _settle(page, "EE x=", 4.0)
         page.get_by_text("Replay", exact=True).click()
         page.get_by_role("button", name="Play").click()  # the visitor presses Play
-        app.replay.seek(4.0)  # the recorded person walks in from about 4 s and stays ~0.6 m away
+        app.replay.seek(4.0)  # the recorded person walks in from about 4 s
+        time.sleep(1.0)
+        page.get_by_role("button", name="Pause").click()  # paused: the canvas and the status agree
+        app.replay.seek(4.5)  # on their way in
+        app.loop.reset()  # the arm at home, as a visitor first sees it
         time.sleep(4.0)
+        page.get_by_text("Drag the arrow handle").scroll_into_view_if_needed()
         page.screenshot(path=str(out / "panda_human.png"))
         page.close()
     finally:
@@ -83,7 +88,10 @@ def trial(context, out: Path) -> None:
         server.stop()
 
 
-def main(out: Path = Path("docs/screenshots"), chromium: str = "/usr/bin/chromium") -> None:
+SHOTS = ("planar", "panda_human", "trial")
+
+
+def main(out: Path = Path("docs/screenshots"), chromium: str = "/usr/bin/chromium", only: tuple[str, ...] = SHOTS) -> None:
     from playwright.sync_api import sync_playwright  # noqa: PLC0415
 
     out.mkdir(parents=True, exist_ok=True)
@@ -94,6 +102,8 @@ def main(out: Path = Path("docs/screenshots"), chromium: str = "/usr/bin/chromiu
         context.set_default_timeout(120_000)
         try:
             for take in (planar, panda_human, trial):
+                if take.__name__ not in only:
+                    continue
                 take(context, out)
                 print(f"wrote {out / (take.__name__ + '.png')}", flush=True)
         finally:
@@ -104,5 +114,6 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/screenshots"))
     parser.add_argument("--chromium", default="/usr/bin/chromium")
+    parser.add_argument("--only", nargs="+", choices=SHOTS, default=SHOTS, help="take only these")
     arguments = parser.parse_args()
-    main(arguments.out, arguments.chromium)
+    main(arguments.out, arguments.chromium, tuple(arguments.only))

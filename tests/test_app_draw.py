@@ -75,3 +75,13 @@ def test_closed_form_quaternion_is_a_unit_rotation_onto_any_direction(direction)
     assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-12)
     turned = Rotation.from_quat([q[1], q[2], q[3], q[0]]).apply([0, 0, 1])
     np.testing.assert_allclose(turned, np.array(direction) / np.linalg.norm(direction), atol=1e-7)
+
+
+def test_plot_history_starts_a_new_trace_when_time_goes_back():
+    from cobotsafety.app.control_loop import LoopSnapshot
+    from cobotsafety.app.plots import PlotHistory
+
+    history = PlotHistory(samples=10)
+    for t_s in (1.0, 2.0, 3.0, 0.5, 0.6):  # a reset at 3 s
+        history.add(LoopSnapshot(t_s, 0, "off", None, np.zeros(3), np.zeros(2), False, {"rate_hz": 1.0}), 0.3)
+    np.testing.assert_allclose(history.array("t_s"), [0.5, 0.6])

@@ -140,10 +140,10 @@ def test_at_a_limit_anticipative_slides_and_stop_halts(browser, app):
     page = open_page(browser, app)
     # Towards the base: the end-effector meets joint 2's limit circle (B) almost head-on.
     reset(page, app, "anticipative")
-    slid, stopped = displacement_after_first_binding(drag(page, app, 60, 2.0))
+    slid, stopped = displacement_after_first_binding(drag(page, app, 120, 2.0))  # ~0.2 m at this zoom
     assert slid > 0.02 and not stopped, slid
     reset(page, app, "stop")
-    held, stopped = displacement_after_first_binding(drag(page, app, 60, 2.0))
+    held, stopped = displacement_after_first_binding(drag(page, app, 120, 2.0))
     assert held < 0.002 and stopped, held
     page.close()
 
