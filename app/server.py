@@ -13,7 +13,6 @@ visibility and colours (no mesh is re-sent), the status is refreshed at ~5 Hz an
 from __future__ import annotations
 
 import logging
-import re
 import sys
 import threading
 import time
@@ -29,14 +28,16 @@ from cobotsafety.app import jog as jog_module
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
 from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look, status_text
+from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
-from cobotsafety.app.replay_control import ReplayControl, bundled_recording
+from cobotsafety.app.replay_control import ReplayControl, bundled_recording, seek_maximum_s, without_server_paths
 from cobotsafety.app.scene_human import HumanView, minimum_distance
 from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.zones_editor import ZoneEditor
 from cobotsafety.errors import CobotSafetyError, RecordingError
 
 logger = logging.getLogger(__name__)
+logging.getLogger("cobotsafety.filter").addFilter(RepeatedWarningFilter())
 
 
 @dataclass(frozen=True)
@@ -60,43 +61,6 @@ FIG9_MARKER_RADIUS_M = 0.035
 FIG9_MARKER_RGB = (40, 170, 60)
 FIG9_ARRIVED_M = 0.005
 """A scripted pull ends when the end-effector is this close to its target [m]."""
-
-
-def seek_maximum_s(duration_s: float) -> float:
-    """The seek slider's maximum: the duration rounded down to the slider's 0.01 s step."""
-    return max(float(np.floor(duration_s * 100.0 + 1e-6) / 100.0), 0.01)
-
-
-def without_server_paths(message: str, path: Path) -> str:
-    """``message`` with the server-side location of ``path`` removed (only its name is shown)."""
-    for location in (str(path), str(path.parent) + "/", str(path.parent)):
-        message = message.replace(location, "" if location.endswith("/") else path.name)
-    return re.sub(r"/(?:tmp|var|root|home)/\S*", "<file>", message)
-
-
-class RepeatedWarningFilter(logging.Filter):
-    """Let one log message template through at most once per ``interval_s`` [s].
-
-    The filter's "stopped the robot" warning can fire at every 1 kHz step while a person stands
-    in the arm; the demo's terminal shows it once per interval instead.
-    """
-
-    def __init__(self, interval_s: float = 5.0):
-        super().__init__()
-        self.interval_s = interval_s
-        self._last_s: dict[str, float] = {}
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        now = time.monotonic()
-        key = str(record.msg)
-        if now - self._last_s.get(key, -np.inf) < self.interval_s:
-            return False
-        self._last_s[key] = now
-        return True
-
-
-REPEAT_FILTER = RepeatedWarningFilter()
-logging.getLogger("cobotsafety.filter").addFilter(REPEAT_FILTER)
 
 
 def supported_robots() -> tuple[str, ...]:
