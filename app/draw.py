@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
-from scipy.spatial.transform import Rotation
 
 GREEN = (40, 180, 80)
 AMBER = (240, 170, 20)
@@ -24,13 +23,21 @@ def wxyz_from_xyzw(q_xyzw: np.ndarray) -> np.ndarray:
 
 
 def wxyz_z_to(direction: np.ndarray) -> np.ndarray:
-    """Quaternion (wxyz) turning +z onto ``direction`` (shape (3,)); identity for a zero vector."""
+    """Quaternion (wxyz) turning +z onto ``direction`` (shape (3,)); identity for a zero vector.
+
+    Closed form (the half-way quaternion ``(1 + z.d, z x d)`` normalised); a direction opposite
+    to +z turns by pi about x. Called for every capsule in every frame, so no scipy call.
+    """
     d = np.asarray(direction, dtype=float)
     length = float(np.linalg.norm(d))
     if length < 1e-12:
         return np.array([1.0, 0.0, 0.0, 0.0])
-    rotation, _ = Rotation.align_vectors(d[None, :] / length, np.array([[0.0, 0.0, 1.0]]))
-    return wxyz_from_xyzw(rotation.as_quat())
+    dx, dy, dz = d / length
+    w = 1.0 + dz
+    if w < 1e-9:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    q = np.array([w, -dy, dx, 0.0])
+    return q / float(np.linalg.norm(q))
 
 
 def capsule_mesh(length_m: float, radius_m: float) -> trimesh.Trimesh:

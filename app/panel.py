@@ -13,10 +13,13 @@ from cobotsafety.app.gizmo import GizmoSettings
 from cobotsafety.teleop import METHODS
 
 PLANAR_SCENES = ("all limitations A-G", "Fig. 9 a (blocked)", "Fig. 9 b (gap)")
+HINT = ("**Drag the arrow handle** at the end-effector: its offset from the end-effector is the "
+        "velocity command. The filter slides the motion along the limits it meets (highlighted).")
 
 
 @dataclass(frozen=True)
 class Panel:
+    hint: viser.GuiMarkdownHandle
     status: viser.GuiMarkdownHandle
     mode: viser.GuiDropdownHandle
     ssm: viser.GuiCheckboxHandle
@@ -36,12 +39,14 @@ class Panel:
     speed: viser.GuiSliderHandle
     loop: viser.GuiCheckboxHandle
     replay_message: viser.GuiMarkdownHandle
+    legend: viser.GuiMarkdownHandle
 
 
 def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, dim: int,
                recordings: tuple[str, ...], gizmo: GizmoSettings, ssm_available: bool) -> Panel:
     """Lay out the panel; ``robots``/``recordings`` are the dropdown options."""
     gui = server.gui
+    hint = gui.add_markdown(HINT)
     status = gui.add_markdown("starting...")
     mode = gui.add_dropdown("Mode", METHODS, initial_value="anticipative",
                             hint="anticipative: slide along limits; stop: halt at a limit; reactive: repel; off")
@@ -54,6 +59,7 @@ def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, d
                                         disabled=dim != 2)
         fig9 = gui.add_button("Fig. 9 scenario", disabled=dim != 2,
                               hint="paper 1, Fig. 9 b: pull the end-effector to the target through the gap")
+        legend = gui.add_markdown("")
     with gui.add_folder("Teleoperation", expand_by_default=False):
         dead_band = gui.add_slider("Dead band [m]", 0.0, 0.05, 0.001, gizmo.dead_band_m)
         gain = gui.add_slider("Gain [1/s]", 0.1, 10.0, 0.1, gizmo.gain_per_s)
@@ -64,21 +70,31 @@ def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, d
     with gui.add_folder("Replay", expand_by_default=False):
         recording = gui.add_dropdown("Recording", recordings or ("(none)",), initial_value=(recordings or ("(none)",))[0])
         upload = gui.add_upload_button("Load recording or ROS bag", hint=".jsonl.gz recording or a ROS bag")
-        play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY)
+        play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, hint="the replay starts paused")
         seek = gui.add_slider("Time [s]", 0.0, 1.0, 0.01, 0.0)
         speed = gui.add_slider("Speed", 0.1, 4.0, 0.1, 1.0)
         loop = gui.add_checkbox("Loop", True)
         replay_message = gui.add_markdown("")
-    return Panel(status, mode, ssm, reset, robot_dropdown, planar_scene, fig9, dead_band, gain, max_speed,
-                 jog, jog_speed, recording, upload, play, seek, speed, loop, replay_message)
+    return Panel(hint, status, mode, ssm, reset, robot_dropdown, planar_scene, fig9, dead_band, gain, max_speed,
+                 jog, jog_speed, recording, upload, play, seek, speed, loop, replay_message, legend)
+
+
+def play_button_look(playing: bool) -> tuple[str, viser.Icon]:
+    """Label and icon of the replay button: it shows what a click does."""
+    return ("Pause", viser.Icon.PLAYER_PAUSE) if playing else ("Play", viser.Icon.PLAYER_PLAY)
 
 
 def status_text(mode: str, rate_hz: float, min_distance_m: float | None, binding: tuple[str, ...],
-                p_base_ee_m, stopped: bool) -> str:
-    """The one-line status: mode, loop rate [Hz], minimum distance [mm], active constraints."""
+                p_base_ee_m, stopped: bool, ssm: bool | None = None,
+                distance_label: str | None = "min distance") -> str:
+    """The status: mode, SSM on/off (3D only: ``ssm=None`` hides it), loop rate [Hz], minimum
+    distance [mm] (``distance_label`` says to what; None hides it), active constraints,
+    end-effector position [mm]."""
     distance = "—" if min_distance_m is None else f"{min_distance_m * 1e3:.0f} mm"
     active = ", ".join(dict.fromkeys(binding)) or "none"
     x, y, z = (float(c) * 1e3 for c in p_base_ee_m)
     halted = " · **stopped**" if stopped else ""
-    return (f"**{mode}** · loop **{rate_hz:.0f} Hz** · min distance **{distance}** · "
+    monitoring = "" if ssm is None else f" · SSM **{'on' if ssm else 'off'}**"
+    shown = "" if distance_label is None else f"{distance_label} **{distance}** · "
+    return (f"**{mode}**{monitoring} · loop **{rate_hz:.0f} Hz** · {shown}"
             f"active: **{active}**{halted}  \nEE x={x:.1f} y={y:.1f} z={z:.1f} mm")

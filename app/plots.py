@@ -1,7 +1,10 @@
-"""Live uPlot graphs: minimum distance, commanded vs executed speed, control-loop rate.
+"""Live uPlot graphs: minimum distance [mm], commanded vs executed speed [mm/s], loop rate [Hz].
 
-``PlotHistory`` keeps the last ``window_s`` of samples (one per render frame); ``Plots`` pushes
-them to three ``gui.add_uplot`` handles made once.
+``PlotHistory`` keeps the last ``samples`` rows (the server adds one every few render frames);
+``Plots`` pushes them to three ``gui.add_uplot`` handles made once. Every chart has fixed,
+labelled y ranges (so an empty chart does not read 0-100 and small speeds do not read "0 0 0"),
+and the commanded speed is drawn dashed and wider under the executed one so both stay visible.
+Rows without a distance are left out of the distance chart instead of sent as NaN.
 """
 
 from __future__ import annotations
@@ -14,19 +17,30 @@ import viser.uplot as uplot
 
 from cobotsafety.app.control_loop import LoopSnapshot
 
+DISTANCE_RANGE_MM = (0.0, 1000.0)
+SPEED_RANGE_MM_S = (0.0, 300.0)
 
-#: The x axis is simulated time in seconds, not a date.
-SCALES = {"x": uplot.Scale(time=False)}
+
+def _scales(y_range: tuple[float, float]) -> dict:
+    # The x axis is simulated time in seconds, not a date; the y range is fixed.
+    return {"x": uplot.Scale(time=False), "y": uplot.Scale(auto=False, range=y_range)}
+
+
+def _axes(unit: str) -> tuple:
+    return (uplot.Axis(label="t [s]", size=36), uplot.Axis(label=unit, size=56, labelSize=18))
 
 
 class PlotHistory:
     """Ring buffers of time [s], minimum distance [m], speeds [m/s] and loop rate [Hz]."""
 
-    def __init__(self, samples: int = 300):
+    def __init__(self, samples: int = 120):
         self.columns = {key: deque(maxlen=samples) for key in
                         ("t_s", "min_distance_m", "speed_commanded_m_s", "speed_executed_m_s", "rate_hz")}
 
     def add(self, snapshot: LoopSnapshot, min_distance_m: float | None) -> None:
+        times = self.columns["t_s"]
+        if times and snapshot.t_s < times[-1]:  # time went back (reset, robot switch): a new trace
+            self.clear()
         report = snapshot.report
         commanded = float(np.linalg.norm(report.v_commanded_m_s)) if report is not None else 0.0
         executed = float(np.linalg.norm(report.v_executed_m_s)) if report is not None else 0.0
@@ -47,24 +61,28 @@ class PlotHistory:
 class Plots:
     """Three uPlot charts in the current GUI container."""
 
-    def __init__(self, server: viser.ViserServer):
+    def __init__(self, server: viser.ViserServer, rate_hz: float, distance_title: str = "Minimum distance"):
         empty = np.zeros(1)
-        line = lambda label, colour: uplot.Series(label=label, stroke=colour, width=2)  # noqa: E731
+        line = lambda label, colour, **kw: uplot.Series(label=label, stroke=colour, **{"width": 2, **kw})  # noqa: E731
         self.distance = server.gui.add_uplot(
-            (empty, empty), (uplot.Series(label="t [s]"), line("min distance [m]", "red")),
-            title="Minimum distance", aspect=2.0, scales=SCALES)
+            (empty, empty), (uplot.Series(label="t [s]"), line("distance [mm]", "#d62728")),
+            title=distance_title, aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(DISTANCE_RANGE_MM), axes=_axes("mm"))
         self.speed = server.gui.add_uplot(
             (empty, empty, empty),
-            (uplot.Series(label="t [s]"), line("commanded [m/s]", "blue"), line("executed [m/s]", "green")),
-            title="End-effector speed", aspect=2.0, scales=SCALES)
+            (uplot.Series(label="t [s]"), line("commanded [mm/s]", "#1f77b4", dash=(8.0, 5.0), width=4),
+             line("executed [mm/s]", "#2ca02c")),
+            title="End-effector speed", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(SPEED_RANGE_MM_S), axes=_axes("mm/s"))
         self.rate = server.gui.add_uplot(
-            (empty, empty), (uplot.Series(label="t [s]"), line("loop [Hz]", "purple")),
-            title="Control-loop rate", aspect=2.0, scales=SCALES)
+            (empty, empty), (uplot.Series(label="t [s]"), line("loop [Hz]", "#9467bd")),
+            title="Control-loop rate", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales((0.0, 1.25 * rate_hz)), axes=_axes("Hz"))
 
     def push(self, history: PlotHistory) -> None:
         t = history.array("t_s")
         if t.size < 2:
             return
-        self.distance.data = (t, history.array("min_distance_m"))
-        self.speed.data = (t, history.array("speed_commanded_m_s"), history.array("speed_executed_m_s"))
+        distance_mm = history.array("min_distance_m") * 1e3
+        finite = np.isfinite(distance_mm)
+        if finite.sum() >= 2:
+            self.distance.data = (t[finite], np.clip(distance_mm[finite], *DISTANCE_RANGE_MM))
+        self.speed.data = (t, history.array("speed_commanded_m_s") * 1e3, history.array("speed_executed_m_s") * 1e3)
         self.rate.data = (t, history.array("rate_hz"))

@@ -7,6 +7,8 @@ Time advances with the wall clock times ``speed`` while playing.
 
 from __future__ import annotations
 
+import math
+import re
 import threading
 from pathlib import Path
 
@@ -31,6 +33,18 @@ def load_replay(path: Path):
     if path.is_dir() or path.suffix in BAG_SUFFIXES:
         return Replay.from_bag(path)
     return Replay.from_file(path)
+
+
+def seek_maximum_s(duration_s: float) -> float:
+    """The seek slider's maximum: the duration rounded down to the slider's 0.01 s step."""
+    return max(math.floor(duration_s * 100.0 + 1e-6) / 100.0, 0.01)
+
+
+def without_server_paths(message: str, path: Path) -> str:
+    """``message`` with the server-side location of ``path`` removed (only its name is shown)."""
+    for location in (str(path), str(path.parent) + "/", str(path.parent)):
+        message = message.replace(location, "" if location.endswith("/") else path.name)
+    return re.sub(r"/(?:tmp|var|root|home)/\S*", "<file>", message)
 
 
 class ReplayControl:

@@ -1,7 +1,9 @@
 """The 3D arm scene: URDF meshes (``viser.extras.ViserUrdf``), translucent robot capsules,
 protection zones, and the zone the command slides on highlighted.
 
-Nodes are made once; ``update`` only sets the URDF joint configuration and the capsule poses.
+Nodes are made once; ``update`` only sets the URDF joint configuration and the capsule poses,
+and only when a joint moved by more than ``REDRAW_TOLERANCE_RAD`` since the last frame sent (an
+arm holding still, or creeping in its null space, sends nothing).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ ROOT = "/arm"
 CAPSULE_COLOUR = (90, 140, 230)
 ZONE_COLOUR = (230, 120, 40)
 HALF_SPACE_SIZE_M = 1.5
+REDRAW_TOLERANCE_RAD = 1e-3
+"""Joint change [rad] (or [m] for prismatic joints) below which a frame does not move the arm."""
 
 
 def urdf_joint_values(model, q: np.ndarray, joint_names: tuple[str, ...]) -> np.ndarray:
@@ -65,6 +69,7 @@ class ArmView:
                 f"{ROOT}/capsules/{i}", *_mesh_arrays(draw.capsule_mesh(length, float(state.capsule_radius[i]))),
                 color=CAPSULE_COLOUR, opacity=0.25 if self.urdf is not None else 0.9))
         self.zone_nodes: dict[str, object] = {}
+        self._q_drawn: np.ndarray | None = None
         self._highlighted: tuple[str, ...] = ()
         self.redraw_zones()
 
@@ -105,13 +110,18 @@ class ArmView:
 
     def update(self, snapshot: LoopSnapshot, q: np.ndarray, capsules) -> None:
         """``q``: pinocchio configuration; ``capsules``: ``(p0, p1, radius)`` world frame [m]."""
+        self.highlight(snapshot.report.binding if snapshot.report is not None else ())
+        q = np.asarray(q, dtype=float)
+        if self._q_drawn is not None and self._q_drawn.shape == q.shape and \
+                float(np.max(np.abs(q - self._q_drawn), initial=0.0)) < REDRAW_TOLERANCE_RAD:
+            return
+        self._q_drawn = q.copy()
         if self.urdf is not None:
             self.urdf.update_cfg(urdf_joint_values(self.teleop.state.model, q, self.joint_names))
         p0, p1, _ = capsules
         for i, node in enumerate(self.capsules):
             node.position = p0[i]
             node.wxyz = draw.wxyz_z_to(p1[i] - p0[i])
-        self.highlight(snapshot.report.binding if snapshot.report is not None else ())
 
     def remove(self) -> None:
         for node in [*self.zone_nodes.values(), *self.capsules, self.grid]:

@@ -1,14 +1,17 @@
 """Human capsules coloured by distance, and the minimum-distance segment with its value.
 
-``HumanView`` keeps one capsule node per slot (at most ``MAX_CAPSULES``) and only moves and
-recolours them; a node is rebuilt only when its capsule's length changes (5- <-> 1-capsule
-model). ``minimum_distance`` picks the closest robot-human capsule pair with
-``cobotsafety.geometry.capsule_distance``; it is a display quantity, not a safety decision.
+``HumanView`` makes its nodes once: the capsules are two batched meshes (a unit cylinder per
+capsule body, scaled to its radius and length, and a unit sphere per end point), so a frame
+sends only instance poses, scales and a colour, never a mesh. Slots beyond the capsules present
+get scale 0. ``minimum_distance`` picks the closest robot-human capsule pair with
+``cobotsafety.geometry.capsule_distance``: the one "min distance" the demo shows (status, label,
+plot).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import trimesh
 import viser
 
 from cobotsafety.app import draw
@@ -17,6 +20,7 @@ from cobotsafety.human.body import HumanCapsules
 
 MAX_CAPSULES = 5
 ROOT = "/human"
+OPACITY = 0.85
 
 
 def minimum_distance(robot_p0_m: np.ndarray, robot_p1_m: np.ndarray, robot_radius_m: np.ndarray,
@@ -37,47 +41,99 @@ def minimum_distance(robot_p0_m: np.ndarray, robot_p1_m: np.ndarray, robot_radiu
     return float(distance[i, j]), a[i, j] + unit * robot_radius_m[i], b[i, j] - unit * human.radius_m[j]
 
 
+def capsule_instances(p0_m: np.ndarray, p1_m: np.ndarray, radius_m: np.ndarray, slots: int = MAX_CAPSULES):
+    """Instance arrays for ``slots`` capsules; rows beyond the given capsules have scale 0.
+
+    Returns ``(body_positions (slots, 3), body_wxyzs (slots, 4), body_scales (slots, 3),
+    end_positions (2 slots, 3), end_scales (2 slots,))``: a unit cylinder from z = 0 to 1 of
+    radius 1 scaled by ``(r, r, length)`` and turned onto the axis, a unit sphere at each end
+    scaled by ``r``. Float32, metres.
+    """
+    count = min(len(radius_m), slots)
+    body_positions = np.zeros((slots, 3), np.float32)
+    body_wxyzs = np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (slots, 1))
+    body_scales = np.zeros((slots, 3), np.float32)
+    end_positions = np.zeros((2 * slots, 3), np.float32)
+    end_scales = np.zeros(2 * slots, np.float32)
+    for i in range(count):
+        axis = np.asarray(p1_m[i], dtype=float) - np.asarray(p0_m[i], dtype=float)
+        radius = float(radius_m[i])
+        body_positions[i] = p0_m[i]
+        body_wxyzs[i] = draw.wxyz_z_to(axis)
+        body_scales[i] = (radius, radius, max(float(np.linalg.norm(axis)), 1e-6))
+        end_positions[2 * i], end_positions[2 * i + 1] = p0_m[i], p1_m[i]
+        end_scales[2 * i] = end_scales[2 * i + 1] = radius
+    return body_positions, body_wxyzs, body_scales, end_positions, end_scales
+
+
+def _unit_cylinder() -> trimesh.Trimesh:
+    mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=20)
+    mesh.apply_translation([0.0, 0.0, 0.5])
+    return mesh
+
+
 class HumanView:
+    """The human layer; ``visible = False`` hides it (the planar scene ignores the human)."""
+
     def __init__(self, server: viser.ViserServer):
         self.server = server
-        self.nodes: list = [None] * MAX_CAPSULES
-        self.lengths = [-1.0] * MAX_CAPSULES
-        self.radii = [-1.0] * MAX_CAPSULES
+        cylinder, sphere = _unit_cylinder(), trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        bodies, wxyzs, scales, ends, end_scales = capsule_instances(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        self.bodies = server.scene.add_batched_meshes_simple(
+            f"{ROOT}/bodies", np.asarray(cylinder.vertices, np.float32), np.asarray(cylinder.faces, np.uint32),
+            batched_wxyzs=wxyzs, batched_positions=bodies, batched_scales=scales, batched_colors=draw.GREY,
+            opacity=OPACITY, lod="off", cast_shadow=False, receive_shadow=False)
+        self.ends = server.scene.add_batched_meshes_simple(
+            f"{ROOT}/ends", np.asarray(sphere.vertices, np.float32), np.asarray(sphere.faces, np.uint32),
+            batched_wxyzs=np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (len(ends), 1)),
+            batched_positions=ends, batched_scales=end_scales, batched_colors=draw.GREY, opacity=OPACITY,
+            lod="off", cast_shadow=False, receive_shadow=False)
         self.segment = server.scene.add_line_segments(f"{ROOT}/min_distance", np.zeros((1, 2, 3)), draw.RED,
                                                       thickness=0.006, visible=False)
         self.label = server.scene.add_label(f"{ROOT}/min_distance_label", "", visible=False)
+        self.shown_capsules = 0
+        """How many human capsules the last ``update`` drew (0 when hidden or absent)."""
+        self._visible = True
 
-    def _node(self, slot: int, length_m: float, radius_m: float):
-        if (abs(length_m - self.lengths[slot]) > 1e-3 or abs(radius_m - self.radii[slot]) > 1e-3
-                or self.nodes[slot] is None):
-            if self.nodes[slot] is not None:
-                self.nodes[slot].remove()
-            mesh = draw.capsule_mesh(length_m, radius_m)
-            self.nodes[slot] = self.server.scene.add_mesh_simple(
-                f"{ROOT}/capsule_{slot}", np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32),
-                color=draw.GREEN, opacity=0.6)
-            self.lengths[slot], self.radii[slot] = length_m, radius_m
-        return self.nodes[slot]
+    @property
+    def visible(self) -> bool:
+        return self._visible
 
-    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None) -> None:
-        count = 0 if human is None else min(len(human.names), MAX_CAPSULES)
+    @visible.setter
+    def visible(self, visible: bool) -> None:
+        self._visible = bool(visible)
+        for node in (self.bodies, self.ends):
+            node.visible = self._visible
+        if not self._visible:
+            self.segment.visible = self.label.visible = False
+
+    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None,
+               refresh_text: bool = True) -> None:
+        """Move the capsules to ``human`` and show ``closest`` (from ``minimum_distance``).
+
+        ``refresh_text``: rewrite the label's value (the server does it in the frames that
+        refresh the status line, so the scene and the status always show the same number).
+        """
+        present = self._visible and human is not None and human.present
+        if present:
+            bodies, wxyzs, scales, ends, end_scales = capsule_instances(human.p0_b_m, human.p1_b_m, human.radius_m)
+            self.shown_capsules = min(len(human.radius_m), MAX_CAPSULES)
+        else:
+            bodies, wxyzs, scales, ends, end_scales = capsule_instances(np.zeros((0, 3)), np.zeros((0, 3)),
+                                                                        np.zeros(0))
+            self.shown_capsules = 0
+        self.bodies.batched_positions, self.bodies.batched_wxyzs = bodies, wxyzs
+        self.bodies.batched_scales = scales
+        self.ends.batched_positions, self.ends.batched_scales = ends, end_scales
         colour = draw.distance_colour(None if closest is None else closest[0])
-        for slot in range(count):
-            axis = human.p1_b_m[slot] - human.p0_b_m[slot]
-            node = self._node(slot, float(np.linalg.norm(axis)), float(human.radius_m[slot]))
-            node.position = human.p0_b_m[slot]
-            node.wxyz = draw.wxyz_z_to(axis)
-            node.color = colour
-            node.visible = True
-        for slot in range(count, MAX_CAPSULES):
-            if self.nodes[slot] is not None:
-                self.nodes[slot].visible = False
-        if closest is None:
+        for node, count in ((self.bodies, MAX_CAPSULES), (self.ends, 2 * MAX_CAPSULES)):
+            node.batched_colors = np.tile(np.array(colour, np.uint8), (count, 1))
+        if closest is None or not present:
             self.segment.visible = self.label.visible = False
             return
         distance_m, p_robot, p_human = closest
         self.segment.points = np.array([[p_robot, p_human]], dtype=np.float32)
-        self.segment.colors = np.tile(np.array(colour, dtype=np.uint8), (1, 2, 1))
         self.label.position = (p_robot + p_human) / 2.0
-        self.label.text = f"{distance_m * 1e3:.0f} mm"
+        if refresh_text or not self.label.visible:
+            self.label.text = f"{distance_m * 1e3:.0f} mm"
         self.segment.visible = self.label.visible = True

@@ -69,6 +69,25 @@ def limitation_outline(limitation: PlanarLimitation, teleop: PlanarTeleop) -> np
     return None
 
 
+def label_text(name: str) -> str:
+    """The short label of a limitation: its letter ("B joint 2" -> "B")."""
+    return name.split(" ")[0]
+
+
+def label_anchor(limitation: PlanarLimitation, segments: np.ndarray, rank: int) -> np.ndarray:
+    """Where a limitation's label sits [m], shape (3,).
+
+    Zones: their centroid. Circles and rays: a point on the outline at a fraction that differs
+    per limitation (``rank``), so labels of concentric circles do not land on one ray.
+    """
+    if is_zone(limitation):
+        return segments[:, 0, :].mean(axis=0)
+    fraction = (0.05 + 0.13 * rank) % 1.0
+    if isinstance(limitation, JointLimit) and limitation.joint == 1:
+        return segments[rank % len(segments), 1, :] * 0.85
+    return segments[int(fraction * len(segments)) % len(segments), 0, :]
+
+
 def is_zone(limitation: PlanarLimitation) -> bool:
     return isinstance(limitation, (RectangleZone, PolygonZone, LinkCircleZone)) or (
         isinstance(limitation, CircleKeepOut) and limitation.center_m != (0.0, 0.0))
@@ -82,8 +101,10 @@ class PlanarView:
         self.teleop = teleop
         scene = server.scene
         scene.set_up_direction("+z")
-        server.initial_camera.position = (0.0, -0.05, 1.9)
-        server.initial_camera.look_at = (0.0, 0.1, 0.0)
+        # Top-down, close enough that the reach circle fills most of the canvas height, shifted
+        # so the workspace sits left of the control panel.
+        server.initial_camera.position = (0.15, -0.01, 1.0)
+        server.initial_camera.look_at = (0.15, 0.0, 0.0)
         self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
                                    position=(0.0, 0.0, -0.002))
         arm = teleop.scene.arm
@@ -106,38 +127,54 @@ class PlanarView:
 
     # -- limitations ---------------------------------------------------------------------
     def redraw_limitations(self) -> None:
-        """(Re)build one line node and one label per drawable limitation of the current scene."""
-        for node, _ in self._limit_nodes.values():
-            node.remove()
+        """(Re)build the drawings of the current scene's limitations.
+
+        Each drawable limitation gets two line nodes made once, its normal colour and the
+        highlight (thicker, magenta), and ``highlight`` only toggles their ``visible``: a
+        visibility change reaches every open tab, whereas viser does not re-colour line
+        segments in a tab that already drew them. Labels are the limitation letters, spread
+        along each outline so concentric circles do not stack them; ``legend()`` names them.
+        """
+        for normal, bright in self._limit_nodes.values():
+            normal.remove()
+            bright.remove()
         for label in self._label_nodes:
             label.remove()
         self._limit_nodes, self._label_nodes, self._highlighted = {}, [], ()
-        for index, limitation in enumerate(self.teleop.scene.limitations):
-            segments = limitation_outline(limitation, self.teleop)
-            if segments is None:
-                continue
+        drawable = [(i, lim, limitation_outline(lim, self.teleop)) for i, lim in enumerate(self.teleop.scene.limitations)]
+        drawable = [(i, lim, seg) for i, lim, seg in drawable if seg is not None]
+        for rank, (index, limitation, segments) in enumerate(drawable):
             colour = ZONE_COLOUR if is_zone(limitation) else LIMIT_COLOUR
-            node = self.server.scene.add_line_segments(
-                f"{ROOT}/limits/{index}", segments, colour, thickness=0.004)
-            self._limit_nodes[limitation.name] = (node, colour)
-            anchor = segments[:, 0, :].mean(axis=0) if is_zone(limitation) else segments[0, 0, :]
+            normal = self.server.scene.add_line_segments(f"{ROOT}/limits/{index}", segments, colour, thickness=0.004)
+            bright = self.server.scene.add_line_segments(f"{ROOT}/limits/{index}_active", segments, draw.HIGHLIGHT,
+                                                         thickness=0.009, visible=False)
+            self._limit_nodes[limitation.name] = (normal, bright)
             self._label_nodes.append(self.server.scene.add_label(
-                f"{ROOT}/labels/{index}", limitation.name.split(" ")[0], position=anchor, font_screen_scale=0.7))
+                f"{ROOT}/labels/{index}", label_text(limitation.name), position=label_anchor(limitation, segments, rank),
+                font_screen_scale=0.8))
+
+    def legend(self) -> str:
+        """Markdown: one line per limitation, its letter and its name."""
+        names = [limitation.name for limitation in self.teleop.scene.limitations if limitation.name in self._limit_nodes]
+        return "  \n".join(f"**{label_text(name)}** {name.partition(' ')[2]}" for name in names)
 
     def set_teleop(self, teleop: PlanarTeleop) -> None:
         self.teleop = teleop
         self.redraw_limitations()
 
     def highlight(self, binding: tuple[str, ...]) -> None:
-        """Colour the limitations whose name starts a binding row's name; restore the others."""
+        """Show the highlight of the limitations whose name starts a binding row's name."""
         if binding == self._highlighted:
             return
-        for name, (node, colour) in self._limit_nodes.items():
+        for name, (normal, bright) in self._limit_nodes.items():
             active = any(row == name or row.startswith(name + " ") for row in binding)
-            count = node.points.shape[0]
-            node.colors = np.tile(np.array(draw.HIGHLIGHT if active else colour, dtype=np.uint8), (count, 2, 1))
-            node.thickness = 0.008 if active else 0.004
+            bright.visible = active
+            normal.visible = not active
         self._highlighted = binding
+
+    def active_limitations(self) -> tuple[str, ...]:
+        """Names of the limitations drawn highlighted now."""
+        return tuple(name for name, (_, bright) in self._limit_nodes.items() if bright.visible)
 
     # -- per frame -----------------------------------------------------------------------
     def end_effector_m(self) -> np.ndarray:
@@ -155,8 +192,9 @@ class PlanarView:
         self.highlight(snapshot.report.binding if snapshot.report is not None else ())
 
     def remove(self) -> None:
-        for node, _ in self._limit_nodes.values():
-            node.remove()
+        for normal, bright in self._limit_nodes.values():
+            normal.remove()
+            bright.remove()
         for node in [*self._label_nodes, *self.links, *self.capsules, self.ee, self.base, self.grid]:
             node.remove()
 

@@ -1,13 +1,19 @@
 """``DemoApp``: the viser server, one shared robot for every browser tab, and the render loop.
 
 viser broadcasts ``server.scene``/``server.gui`` to every client, so all tabs see the same robot;
-a gizmo drag from any tab drives it. The control loop (``ControlLoop``, 500 Hz) and the render
-loop (``render_hz``) are separate threads; a client that disconnects mid-drag releases the gizmo.
+a gizmo drag from any tab drives it. The control loop (``ControlLoop``, 1 kHz by default, 500 Hz
+an option) and the render loop (``render_hz``) are separate threads; a client that disconnects
+mid-drag releases the gizmo.
+
+What a frame sends is bounded: scene nodes are made once and a frame only sets poses,
+visibility and colours (no mesh is re-sent), the status is refreshed at ~5 Hz and the plots at
+~2 Hz. The replay starts paused so a visitor first sees the robot at home, waiting for a drag.
 """
 
 from __future__ import annotations
 
 import logging
+import sys
 import threading
 import time
 import warnings
@@ -17,18 +23,21 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from cobotsafety.app import draw
 from cobotsafety.app import jog as jog_module
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
-from cobotsafety.app.panel import PLANAR_SCENES, make_panel, status_text
+from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look, status_text
+from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
-from cobotsafety.app.replay_control import ReplayControl, bundled_recording
+from cobotsafety.app.replay_control import ReplayControl, bundled_recording, seek_maximum_s, without_server_paths
 from cobotsafety.app.scene_human import HumanView, minimum_distance
 from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.zones_editor import ZoneEditor
 from cobotsafety.errors import CobotSafetyError, RecordingError
 
 logger = logging.getLogger(__name__)
+logging.getLogger("cobotsafety.filter").addFilter(RepeatedWarningFilter())
 
 
 @dataclass(frozen=True)
@@ -41,8 +50,17 @@ class DemoConfig:
     """Human recording (.jsonl.gz) or ROS bag; None = the bundled recording."""
     host: str = "127.0.0.1"
     port: int = 8080
-    rate_hz: float = 500.0
+    rate_hz: float = 1000.0
     render_hz: float = 30.0
+
+
+GIL_SWITCH_INTERVAL_S = 0.0005
+"""Python's thread switch interval while the demo runs [s] (default 0.005)."""
+FIG9_MARKER_RADIUS_M = 0.035
+"""Radius of the ring marking the Fig. 9 target [m] (wider than the end-effector drawn on it)."""
+FIG9_MARKER_RGB = (40, 170, 60)
+FIG9_ARRIVED_M = 0.005
+"""A scripted pull ends when the end-effector is this close to its target [m]."""
 
 
 def supported_robots() -> tuple[str, ...]:
@@ -68,6 +86,7 @@ class DemoApp:
         message = self.replay.load(first)
         if message:  # a bad --replay is refused at start-up with the loader's message
             raise RecordingError(message)
+        self.replay.playing = False  # the robot waits at home until the visitor plays the human
         self.recordings: dict[str, Path] = {self.replay.name: first}
         self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
         self.server.gui.configure_theme(control_width="large")
@@ -76,10 +95,13 @@ class DemoApp:
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz))
         self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
                                 self.loop.gizmo, ssm_available=self.scene.dim == 3)
-        self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
+        self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
         self.human = HumanView(self.server)
+        self.human.visible = self.scene.dim == 3  # the planar arm ignores the human: so does its view
+        self.panel.legend.content = self._legend()
         self.zones = ZoneEditor(self.server, self.loop, lambda: self.scene)
-        self.plots = Plots(self.server)
+        self.plots = Plots(self.server, config.rate_hz, "Robot-human distance")
+        self.plots.distance.visible = self.scene.dim == 3
         self.history = PlotHistory()
         self._dragging_client: int | None = None
         self._render_thread: threading.Thread | None = None
@@ -89,6 +111,12 @@ class DemoApp:
         self.last_gizmo_update_s = 0.0
         """``time.perf_counter()`` of the last accepted gizmo update (for the latency bench)."""
         self._last_render_error = ""
+        self._scripted_target_m: np.ndarray | None = None
+        """Target of a scripted pull (Fig. 9), released on arrival or when a user drags."""
+        self._target_marker = None
+        self._scripted_since_steps = 0
+        self.last_min_distance_m: float | None = None
+        """The one minimum distance shown by the status, the scene label and the plot [m]."""
         self.gizmo = self._make_gizmo()
         self._wire()
 
@@ -100,6 +128,7 @@ class DemoApp:
 
         @gizmo.on_update
         def _(event: viser.TransformControlsEvent) -> None:
+            self._scripted_target_m = None  # a user's drag takes over from a scripted pull
             if event.phase == "end":
                 self._dragging_client = None
                 self.loop.release_gizmo()
@@ -165,12 +194,12 @@ class DemoApp:
 
     def _wire_replay(self) -> None:
         panel, replay = self.panel, self.replay
-        panel.play.label = "Pause" if replay.playing else "Play"
+        self._show_play_button()
 
         @panel.play.on_click
         def _(_event) -> None:
             replay.playing = not replay.playing
-            panel.play.label = "Pause" if replay.playing else "Play"
+            self._show_play_button()
 
         @panel.seek_s.on_update
         def _(_event) -> None:
@@ -190,32 +219,47 @@ class DemoApp:
             path = self.recordings.get(panel.recording.value)
             if path is not None and panel.recording.value != replay.name:
                 self.show_replay_message(replay.load(path, panel.recording.value))
+                self._show_play_button()
 
         @panel.upload.on_upload
-        def _(_event) -> None:
+        def _(event) -> None:
             upload = panel.upload.value
-            self.load_uploaded(upload.name, upload.content)
+            self.load_uploaded(upload.name, upload.content, event.client)
 
     # ---- actions ------------------------------------------------------------------------
-    def load_uploaded(self, name: str, content: bytes) -> str:
-        """Save an uploaded recording or bag and switch to it; returns the refusal or ""."""
+    def load_uploaded(self, name: str, content: bytes, client: viser.ClientHandle | None = None) -> str:
+        """Save an uploaded recording or bag and switch to it; returns the refusal or "".
+
+        A refusal names the file and the loader's reason, never a server path; it goes to the
+        uploading tab as a red notification, and the previous replay keeps running.
+        """
         import tempfile  # noqa: PLC0415
 
         path = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-")) / Path(name).name
         path.write_bytes(content)
-        message = self.replay.load(path, path.name)
+        message = without_server_paths(self.replay.load(path, path.name), path)
         if not message:
             self.recordings[path.name] = path
             self.panel.recording.options = tuple(self.recordings)
             self.panel.recording.value = path.name
-            self.panel.seek_s.max = max(self.replay.duration_s, 0.01)
+            self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
+            self._show_play_button()
+        elif client is not None:
+            client.add_notification("Recording refused", message, color="red", with_close_button=True)
         self.show_replay_message(message)
         return message
 
     def show_replay_message(self, message: str) -> None:
-        self.panel.replay_message.content = f"**{message}**" if message else f"playing {self.replay.name}"
+        self.panel.replay_message.content = f"**{message}**" if message else f"loaded {self.replay.name}"
         if message:
             logger.warning("%s", message)
+
+    def _show_play_button(self) -> None:
+        self.panel.play.label, self.panel.play.icon = play_button_look(self.replay.playing)
+
+    def _legend(self) -> str:
+        view = getattr(self.scene, "view", None)
+        return view.legend() if hasattr(view, "legend") else ""
 
     def apply_ssm(self) -> None:
         """The ``SSM`` checkbox onto the robot (3D arms only: the planar scene has no human layer)."""
@@ -228,10 +272,15 @@ class DemoApp:
         """Swap robot and view (robot selector, planar scene, Fig. 9); the loop keeps running.
 
         The old nodes go first (the new scene reuses their names); if the new robot cannot be
-        built, the previous one is rebuilt and the error re-raised.
+        built, the previous one is rebuilt and the error re-raised. Zones added by hand are
+        carried over into the new scene.
         """
         with self._switching:
             previous = self.scene.name
+            self._scripted_target_m = None
+            if self._target_marker is not None:
+                self._target_marker.remove()
+                self._target_marker = None
             with warnings.catch_warnings():  # ViserUrdf removes children twice
                 warnings.simplefilter("ignore", UserWarning)
                 self.scene.remove()
@@ -248,8 +297,11 @@ class DemoApp:
                     self.loop.replace_robot(scene.robot)
                     self.scene = scene
                 self.gizmo = self._make_gizmo()
-                self.zones.reset()
+                self.zones.carry_over()
                 self.history.clear()
+                self.human.visible = scene.dim == 3
+                self.plots.distance.visible = scene.dim == 3
+                self.panel.legend.content = self._legend()
                 for handle in (self.panel.planar_scene, self.panel.fig9):
                     handle.disabled = scene.dim != 2
                 self.panel.ssm.disabled = scene.dim != 3
@@ -260,47 +312,90 @@ class DemoApp:
                     self.panel.planar_scene.value = self._planar_label
 
     def run_fig9(self) -> None:
-        """Paper 1, Fig. 9 b: start pose, then pull the end-effector to the target as a held drag."""
+        """Paper 1, Fig. 9 b: start pose, then pull the end-effector to the marked target.
+
+        The pull is a scripted drag: the gizmo rides with the end-effector, a marker shows the
+        target, and control is released when the arm arrives (within ``FIG9_ARRIVED_M``) or
+        stalls, or as soon as a user grabs the gizmo.
+        """
         from cobotsafety.planar.scenarios import FIG9_TARGET_M  # noqa: PLC0415
 
         self.switch_scene(PLANAR, PLANAR_SCENES[2])
-        self.loop.set_gizmo_target(np.array([*FIG9_TARGET_M, 0.0]))
+        target = np.array([*FIG9_TARGET_M, 0.0])
+        ring = draw.polyline_segments(draw.circle_points(tuple(target[:2]), FIG9_MARKER_RADIUS_M, count=48))
+        self._target_marker = self.server.scene.add_line_segments(
+            "/planar/fig9_target", ring, FIG9_MARKER_RGB, thickness=0.005)
+        self._scripted_target_m = target
+        self._scripted_since_steps = self.loop.snapshot().steps
+        self.loop.set_gizmo_target(target)
+
+    def _follow_scripted_pull(self, snapshot) -> None:
+        """Release a scripted pull on arrival, or when the arm has stopped short (blocked)."""
+        target = self._scripted_target_m
+        if target is None:
+            return
+        arrived = np.linalg.norm(snapshot.p_base_ee_m[:2] - target[:2]) < FIG9_ARRIVED_M
+        report = snapshot.report
+        settled = report is not None and float(np.linalg.norm(report.v_executed_m_s)) < 1e-4
+        started = snapshot.steps - self._scripted_since_steps > 0.5 * self.config.rate_hz
+        if arrived or (settled and started):
+            self._scripted_target_m = None
+            self.loop.release_gizmo()
 
     # ---- render loop --------------------------------------------------------------------
+    def display_distance(self, capsules, human) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """The robot-human closest pair shown everywhere (3D only; the planar arm has no human).
+
+        Robot capsules skip the ones the human constraint skips (the fixed base), so the value
+        is the controller's separation, not a second definition.
+        """
+        if human is None or self.scene.dim != 3:
+            return None
+        p0, p1, radius = capsules
+        skip = int(getattr(getattr(getattr(self.loop.robot, "arm", None), "human", None), "skip_capsules", 1))
+        skip = min(skip, max(len(radius) - 1, 0))
+        return minimum_distance(p0[skip:], p1[skip:], radius[skip:], human)
+
     def render_once(self, wall_dt_s: float = 0.0) -> None:
+        self.frames += 1
+        status_frame = self.frames % 6 == 0  # status (and the scene's distance label) at ~5 Hz
         with self._switching:
             scene = self.scene
             snapshot = self.loop.snapshot()
             data = self.loop.read(scene.read)
             self.replay.advance(wall_dt_s)
-            human = self.replay.capsules()
+            human = self.replay.capsules() if scene.dim == 3 else None
             # The replayed human drives the arm's human constraint at the render rate; between
             # frames the constraint extrapolates with the estimated human velocity.
-            self.loop.read(lambda robot: robot.set_human(human) if hasattr(robot, "set_human") else None)
+            if human is not None:
+                self.loop.read(lambda robot: robot.set_human(human) if hasattr(robot, "set_human") else None)
+            self._follow_scripted_pull(snapshot)
             with self.server.atomic():
                 capsules = scene.render(snapshot, data)
-                closest = None if human is None else minimum_distance(*capsules, human)
-                self.human.update(human, closest)
-                if not snapshot.dragging and self._dragging_client is None:
+                closest = self.display_distance(capsules, human)
+                self.human.update(human, closest, refresh_text=status_frame)
+                if self._dragging_client is None:  # nobody holds it: the gizmo rides with the end-effector
                     if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
                         self.gizmo.position = tuple(snapshot.p_base_ee_m)
         report = snapshot.report
-        min_distance = report.min_distance_m if report is not None else None
-        if min_distance is None and closest is not None:
-            min_distance = closest[0]
-        self.history.add(snapshot, min_distance)
-        self.frames += 1
-        if self.frames % 6 == 0:  # status and plots at ~5 Hz
+        min_distance = None if closest is None else closest[0]
+        self.last_min_distance_m = min_distance
+        if self.frames % 3 == 0:  # plot samples at ~10 Hz
+            self.history.add(snapshot, min_distance)
+        if status_frame:
+            ssm = bool(self.panel.ssm.value) if scene.dim == 3 else None
             text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
                                report.binding if report is not None else (), snapshot.p_base_ee_m,
-                               bool(report is not None and report.stopped))
+                               bool(report is not None and report.stopped), ssm=ssm,
+                               distance_label="human distance" if scene.dim == 3 else None)
             if human is not None and human.stale:
                 text += f"  \n**sensor stale**: {human.reason}"
             if text != self.panel.status.content:
                 self.panel.status.content = text
+            if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere
+                self.panel.seek_s.value = round(min(self.replay.time_s, self.panel.seek_s.max), 2)
+        if self.frames % 15 == 0:  # plots at ~2 Hz
             self.plots.push(self.history)
-            if self.replay.playing:
-                self.panel.seek_s.value = round(self.replay.time_s, 2)
 
     def _render_run(self) -> None:
         period = 1.0 / self.config.render_hz
@@ -324,6 +419,9 @@ class DemoApp:
         return f"http://{shown}:{self.server.get_port()}"
 
     def start(self) -> "DemoApp":
+        # The control thread must not wait CPython's default 5 ms for the GIL while the render
+        # thread or the websocket loop serialise frames: hand it over every 0.5 ms instead.
+        sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
         self.loop.start()
         self._stop.clear()
         self._render_thread = threading.Thread(target=self._render_run, name="cobotsafety-render", daemon=True)

@@ -61,3 +61,27 @@ def test_status_text_names_mode_rate_distance_and_constraints():
                        np.array([-0.2, 0.03, 0.0]), True)
     assert "**stop**" in text and "500 Hz" in text and "234 mm" in text
     assert "B joint 2 upper, F bar" in text and "stopped" in text and "EE x=-200.0 y=30.0" in text
+
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 1e-6))
+def test_closed_form_quaternion_is_a_unit_rotation_onto_any_direction(direction):
+    """The per-frame closed form against scipy's rotation of +z (independent oracle)."""
+    q = draw.wxyz_z_to(np.array(direction))
+    assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-12)
+    turned = Rotation.from_quat([q[1], q[2], q[3], q[0]]).apply([0, 0, 1])
+    np.testing.assert_allclose(turned, np.array(direction) / np.linalg.norm(direction), atol=1e-7)
+
+
+def test_plot_history_starts_a_new_trace_when_time_goes_back():
+    from cobotsafety.app.control_loop import LoopSnapshot
+    from cobotsafety.app.plots import PlotHistory
+
+    history = PlotHistory(samples=10)
+    for t_s in (1.0, 2.0, 3.0, 0.5, 0.6):  # a reset at 3 s
+        history.add(LoopSnapshot(t_s, 0, "off", None, np.zeros(3), np.zeros(2), False, {"rate_hz": 1.0}), 0.3)
+    np.testing.assert_allclose(history.array("t_s"), [0.5, 0.6])

@@ -30,10 +30,12 @@ def test_sliding_limitation_is_highlighted_and_gizmo_returns(app):
     report = app.loop.snapshot().report
     assert any(name.startswith("B joint 2") for name in report.binding)
     app.render_once()
-    node, _ = app.scene.view._limit_nodes["B joint 2"]
-    assert tuple(node.colors[0, 0]) == draw.HIGHLIGHT
-    other, colour = app.scene.view._limit_nodes["E extended reach"]
-    assert tuple(other.colors[0, 0]) == colour
+    normal, bright = app.scene.view._limit_nodes["B joint 2"]
+    assert bright.visible and not normal.visible  # highlight = a visibility toggle: reaches open tabs
+    assert tuple(bright.colors.reshape(-1, 3)[0]) == draw.HIGHLIGHT
+    other, other_bright = app.scene.view._limit_nodes["E extended reach"]
+    assert other.visible and not other_bright.visible
+    assert "B joint 2" in app.scene.view.active_limitations()
     app.loop.release_gizmo()
     for _ in range(300):
         app.loop.step_once()
@@ -68,6 +70,82 @@ def test_zone_editor_adds_moves_and_deletes_a_planar_zone(app):
     assert zone.center_m[0] == pytest.approx(-0.1)
     editor.delete_zone()
     assert name not in [z.name for z in app.scene.zones()]
+
+
+def test_hand_added_zones_survive_a_robot_switch_and_built_in_zones_are_editable(app):
+    editor = app.zones
+    app.loop.reset()
+    editor.shape.value = "box"
+    editor.x.value, editor.y.value, editor.z.value, editor.size.value = -0.3, -0.3, 0.8, 0.05
+    name = editor.add_zone()
+    assert name
+    app.switch_scene("panda")
+    zone = next(z for z in app.scene.zones() if z.name == name)  # carried into the 3D scene as a box
+    np.testing.assert_allclose(zone.center, (-0.3, -0.3, 0.8))
+    app.switch_scene("planar")
+    assert name in [z.name for z in app.scene.zones()]
+    editor.selected.value = "F circle zone"  # a built-in zone
+    editor._load_selected()
+    editor.x.value = float(editor.x.value) + 0.02
+    editor.edit_selected()
+    moved = next(z for z in app.scene.zones() if z.name == "F circle zone")
+    assert moved.center_m[0] == pytest.approx(editor.x.value)
+    editor.selected.value = name
+    editor.delete_zone()
+    assert name not in editor.added
+
+
+def test_a_zone_dropped_onto_the_end_effector_is_refused(app):
+    editor = app.zones
+    app.loop.reset()
+    before = [z.name for z in app.scene.zones()]
+    ee = app.loop.snapshot().p_base_ee_m
+    editor.shape.value = "sphere"
+    editor.x.value, editor.y.value, editor.size.value = float(ee[0]), float(ee[1]), 0.05
+    assert editor.add_zone() == ""
+    assert [z.name for z in app.scene.zones()] == before
+    assert "end-effector" in editor.last_refusal
+    for _ in range(100):
+        app.loop.step_once()
+    np.testing.assert_allclose(app.loop.snapshot().p_base_ee_m, ee, atol=1e-9)  # nothing pushed the arm
+
+
+def test_seek_maximum_and_replay_button_and_paths():
+    import viser
+
+    from cobotsafety.app.panel import play_button_look
+    from cobotsafety.app.server import seek_maximum_s, without_server_paths
+
+    assert seek_maximum_s(31.999515) == pytest.approx(31.99)
+    assert seek_maximum_s(32.0) == pytest.approx(32.0)
+    assert play_button_look(True) == ("Pause", viser.Icon.PLAYER_PAUSE)
+    assert play_button_look(False) == ("Play", viser.Icon.PLAYER_PLAY)
+    from pathlib import Path
+
+    path = Path("/tmp/cobotsafety-upload-abc123/take.bag")
+    message = without_server_paths(f"refused take.bag: cannot read {path}: bad codec in /tmp/other/x.db3", path)
+    assert "/tmp" not in message and "cobotsafety-upload" not in message and "take.bag" in message
+
+
+def test_status_label_and_plot_show_one_minimum_distance():
+    demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))
+    try:
+        assert not demo.replay.playing and demo.replay.time_s == 0.0  # the demo starts paused
+        demo.replay.seek(8.0)  # the person stands ~0.6 m from the arm
+        demo.loop.method = "off"
+        for frame in range(30):
+            demo.render_once()
+            demo.loop.step_once()
+        shown = demo.last_min_distance_m
+        assert shown is not None
+        assert f"human distance **{shown * 1e3:.0f} mm**" in demo.panel.status.content
+        assert "SSM **off**" in demo.panel.status.content
+        assert demo.human.label.text == f"{shown * 1e3:.0f} mm"
+        assert demo.history.array("min_distance_m")[-1] == pytest.approx(shown)
+        # the controller's separation (robot capsules but the fixed base), same human, same pose
+        assert demo.loop.snapshot().report.min_distance_m == pytest.approx(shown, abs=1e-6)
+    finally:
+        demo.server.stop()
 
 
 def test_bad_replay_is_refused_with_the_loaders_message(tmp_path):

@@ -1,5 +1,6 @@
-"""The browser trial: the participant view never reveals the condition; the operator panel
-appears only behind the token; a trial started by the operator shows the colour word."""
+"""The browser trial: the participant view never reveals the condition and shows no operator box;
+the operator view (its own URL) unlocks only with the token, says when a token is wrong, and its
+plan follows Start, Abort and Repeat; the colour word appears only once the trial has started."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import re
 import tempfile
 import time
 
+import numpy as np
 import pytest
 
 from cobotsafety.ports import free_local_port
@@ -18,9 +20,20 @@ CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
         "--disable-sync", "--no-first-run"]
 CONDITION_WORDS = re.compile(r"anticipative|sliding|stop\b|reactive|condition", re.IGNORECASE)
+WORD = re.compile(r"RED|GREEN|BLUE|YELLOW")
 
 
-def test_participant_view_never_shows_the_condition(tmp_path):
+def wait_text(page, pattern: re.Pattern, timeout_s: float = 60.0) -> str:
+    deadline = time.time() + timeout_s
+    while True:
+        text = page.inner_text("body")
+        if pattern.search(text):
+            return text
+        assert time.time() < deadline, f"{pattern.pattern!r} never appeared in: {text[:400]}"
+        time.sleep(0.5)
+
+
+def test_participant_and_operator_views(tmp_path):
     from playwright.sync_api import sync_playwright
 
     server = TrialServer(tmp_path, ["P01", "P02"], seed=3, port=free_local_port()).start_server()
@@ -33,32 +46,47 @@ def test_participant_view_never_shows_the_condition(tmp_path):
             participant = context.new_page()
             participant.goto(server.url)
             participant.get_by_text("Waiting for the operator").wait_for()
-            assert not CONDITION_WORDS.search(participant.inner_text("body"))
-            # The operator starts a divided-attention trial (whatever its condition).
-            divided = next(t for t in server.plan if t.attention == "divided")
-            server.start(divided)
-            participant.get_by_text("Reach target 1").wait_for()
-            participant.get_by_role("button", name="Red").wait_for()
-            deadline = time.time() + 60
-            while time.time() < deadline and not re.search(r"RED|GREEN|BLUE|YELLOW", participant.inner_text("body")):
-                time.sleep(0.5)
-            text = participant.inner_text("body")
-            assert re.search(r"RED|GREEN|BLUE|YELLOW", text)  # the colour word is shown...
-            assert not CONDITION_WORDS.search(text)  # ...the condition never is
-            # The operator panel (which does name conditions) appears only after the token.
+            body = participant.inner_text("body")
+            assert not CONDITION_WORDS.search(body)
+            assert "Operator" not in body and participant.get_by_role("textbox").count() == 0
+
+            # The operator view: a wrong token is refused and cleared, the right one unlocks.
             operator = context.new_page()
-            operator.goto(server.url)
+            operator.goto(server.operator_url)
             operator.get_by_text("Operator login").wait_for()
             token_box = operator.get_by_role("textbox").last
-            token_box.fill("wrong")
-            token_box.press("Enter")
-            time.sleep(2)
+            wrong = "0" * len(server.token) if server.token != "0" * len(server.token) else "1" * len(server.token)
+            token_box.fill(wrong)
+            operator.get_by_text("Wrong token").wait_for()
             assert "Start next trial" not in operator.inner_text("body")
-            token_box.fill(server.token)
-            token_box.press("Enter")
+            assert token_box.input_value() == ""
+            operator.get_by_role("textbox").last.fill(server.token)
             operator.get_by_text("Start next trial").wait_for()
+            assert server.token not in operator.inner_text("body")  # the token left the page
+
+            # Start a divided-attention trial from the panel (skip the full-attention ones first).
+            divided = next(t for t in server.plan if t.attention == "divided")
+            server.start(divided)
+            participant.get_by_text(f"Trial {divided.order} of 4.").wait_for()
+            participant.get_by_role("button", name="Red").wait_for()
+            time.sleep(3.0)  # no motion yet: the trial, and its colour task, has not started
+            assert not WORD.search(participant.inner_text("body"))
+            x, y = server.course.targets_m[0]
+            server.loop.set_gizmo_target(np.array([x, y, 0.0]))  # the participant starts moving
+            text = wait_text(participant, WORD)
+            assert f"Trial {divided.order} of 4." in text  # the trial number stays
+            assert not CONDITION_WORDS.search(text)
+            server.loop.release_gizmo()
+
+            wait_text(operator, re.compile(r"Running: P0\d"))
             assert re.search(r"anticipative|stop", operator.inner_text("body"))
-            time.sleep(1.0)
+            operator.get_by_role("button", name="Abort trial").click()
+            wait_text(operator, re.compile(r"Aborted: P0\d"))
+            participant.get_by_text("Trial stopped").wait_for()
+            operator.get_by_role("button", name="Repeat last trial").click()
+            participant.get_by_text(f"Trial {divided.order} of 4.").wait_for()
+            wait_text(operator, re.compile(r"Running: P0\d"))
+            assert server.current is not None and server.current[0] == divided
             assert not CONDITION_WORDS.search(participant.inner_text("body"))
             context.close()
     finally:

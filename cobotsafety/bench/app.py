@@ -1,5 +1,10 @@
 """``cobotsafety bench app``: the demo's control-loop rate and jitter with a browser connected,
-drag-to-motion latency, and start-up time from the command to the first frame in a browser.
+what the server sends per client (bytes and messages per second, decoded by ``WireProbe``
+clients), drag-to-motion latency, and start-up time from the command to the first frame.
+
+The wire figures come in four phases of ``--seconds`` each: ``idle`` (replay paused, no input)
+and ``moving`` (replay playing, the gizmo pulled round a 10 cm circle at 20 Hz), each with 1 and
+with 8 counting clients connected beside the browser tab. Each phase resets the loop statistics.
 
 Needs Chromium at ``--chromium`` (default /usr/bin/chromium) and the ``playwright`` package.
 """
@@ -8,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import os
 import subprocess
 import sys
 import tempfile
@@ -29,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--drags", type=int, default=10, help="drag-to-motion latency samples")
     parser.add_argument("--robot", default="planar",
                         help="scene for the loop-rate window: planar (default) or an arm name (panda, ur5, ...)")
+    parser.add_argument("--rate", type=float, default=1000.0, help="control-loop rate [Hz] (default 1000)")
+    parser.add_argument("--clients", default="1,8", help="counting clients per phase, comma-separated")
+    parser.add_argument("--skip-startup", action="store_true", help="do not time the start-up of `cobotsafety demo`")
 
 
 def _arrow(page, timeout_s: float = 30.0) -> tuple[float, float]:
@@ -83,10 +92,64 @@ def _first_frame_s(context, port: int) -> tuple[float, float]:
         process.wait(timeout=10)
 
 
+def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
+    """One measurement window: ``clients`` counting clients, idle or moving; loop and wire figures.
+
+    The counting clients run in a separate process (``python -m cobotsafety.app.wire_probe``),
+    as browsers would: they do not share the server's interpreter.
+    """
+    import json  # noqa: PLC0415
+    import threading  # noqa: PLC0415
+
+    from cobotsafety.app.control_loop import LoopStats  # noqa: PLC0415
+
+    app.loop.reset()
+    app.replay.seek(0.0)
+    app.replay.playing = moving
+    stop = threading.Event()
+
+    def pull() -> None:  # the gizmo pulled round a circle, as a user's drag would
+        home = app.loop.snapshot().p_base_ee_m.copy()
+        start = time.perf_counter()
+        while not stop.wait(0.05):
+            angle = 2.0 * np.pi * (time.perf_counter() - start) / 4.0
+            app.loop.set_gizmo_target(home + 0.1 * np.array([np.cos(angle) - 1.0, np.sin(angle), 0.0]))
+
+    puller = threading.Thread(target=pull, daemon=True) if moving else None
+    if puller is not None:
+        puller.start()
+    probes = subprocess.Popen([sys.executable, "-m", "cobotsafety.app.wire_probe", app.url, "--clients",
+                               str(clients), "--warmup", "3", "--seconds", str(seconds)],
+                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        if probes.stdout.readline().strip() != "ready":  # the initial scene backlog is not steady state
+            raise RuntimeError("wire probes did not start")
+        app.loop.stats = LoopStats(window=int(seconds * app.config.rate_hz * 2))
+        frames = app.frames
+        counts = json.loads(probes.stdout.readline())
+        stats = app.loop.stats.summary()
+        frames = app.frames - frames
+    finally:
+        probes.wait(timeout=60)
+        stop.set()
+    if puller is not None:
+        puller.join()
+    app.loop.release_gizmo()
+    app.replay.playing = False
+    mesh_per_s = [c["types"].get("MeshMessage", 0) / c["seconds"] for c in counts]
+    return {"clients": clients, "state": "moving" if moving else "idle",
+            "kB_per_s_per_client": round(float(np.mean([c["bytes_per_s"] for c in counts])) / 1e3, 1),
+            "kB_per_s_per_client_max": round(float(np.max([c["bytes_per_s"] for c in counts])) / 1e3, 1),
+            "messages_per_s_per_client": round(float(np.mean([c["messages_per_s"] for c in counts])), 1),
+            "mesh_messages_per_s": round(float(np.max(mesh_per_s)), 2),
+            "loop_rate_hz": round(stats["rate_hz"], 1), "period_p50_ms": round(stats["p50_ms"], 3),
+            "period_p99_ms": round(stats["p99_ms"], 3), "period_max_ms": round(stats["max_ms"], 3),
+            "render_frames_per_s": round(frames / seconds, 1), "load_average_1min": round(os.getloadavg()[0], 2)}
+
+
 def run(args: argparse.Namespace) -> dict:
     from playwright.sync_api import sync_playwright  # noqa: PLC0415
 
-    from cobotsafety.app.control_loop import LoopStats  # noqa: PLC0415
     from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415
     from cobotsafety.bench.timing import machine_description  # noqa: PLC0415
 
@@ -95,11 +158,12 @@ def run(args: argparse.Namespace) -> dict:
         context = playwright.chromium.launch_persistent_context(
             tempfile.mkdtemp(prefix="cobotsafety-bench-"), executable_path=args.chromium, headless=True,
             args=CHROMIUM_ARGS, viewport={"width": 1200, "height": 800})
-        status_s, frame_s = _first_frame_s(context, free_local_port())
-        result["startup_to_status_s"] = round(status_s, 2)
-        result["startup_to_first_frame_s"] = round(frame_s, 2)
+        if not args.skip_startup:
+            status_s, frame_s = _first_frame_s(context, free_local_port())
+            result["startup_to_status_s"] = round(status_s, 2)
+            result["startup_to_first_frame_s"] = round(frame_s, 2)
 
-        app = DemoApp(DemoConfig(port=free_local_port())).start()
+        app = DemoApp(DemoConfig(port=free_local_port(), rate_hz=args.rate)).start()
         try:
             page = context.new_page()
             page.goto(app.url)
@@ -133,30 +197,19 @@ def run(args: argparse.Namespace) -> dict:
                 page.get_by_text("EE x=").wait_for(timeout=60000)
                 time.sleep(2.0)
             result["robot"] = args.robot
-            app.loop.reset()
-            app.loop.stats = LoopStats(window=int(args.seconds * app.config.rate_hz * 2))
-            try:  # hold a drag so the scene streams while we measure
-                x, y = _arrow(page, timeout_s=10.0)
-                page.mouse.move(x, y)
-                page.mouse.down()
-                page.mouse.move(x - 40, y, steps=5)
-                result["loop_input"] = "mouse drag"
-            except RuntimeError:  # gizmo hidden behind the arm from this camera: same path, server side
-                app.loop.set_gizmo_target(app.loop.snapshot().p_base_ee_m + np.array([-0.1, 0.1, 0.0]))
-                result["loop_input"] = "gizmo target set server-side"
-            frames = app.frames
-            time.sleep(args.seconds)
-            frames = app.frames - frames
-            page.mouse.up()
+            result["phases"] = [_phase(app, clients, moving, args.seconds)
+                                for clients in (int(c) for c in args.clients.split(","))
+                                for moving in (False, True)]
             page.screenshot(path=f"/tmp/cobotsafety_app_{args.robot}.png")
-            stats = app.loop.stats.summary()
-            result.update({"loop_rate_hz": round(stats["rate_hz"], 1), "period_p50_ms": round(stats["p50_ms"], 3),
-                           "period_p99_ms": round(stats["p99_ms"], 3), "period_max_ms": round(stats["max_ms"], 3),
-                           "loop_overruns": app.loop.stats.overruns, "target_rate_hz": app.config.rate_hz,
-                           "render_frames_per_s": round(frames / args.seconds, 1)})
+            for phase in result["phases"]:
+                result[f"{phase['state']}_{phase['clients']}_clients"] = (
+                    f"{phase['kB_per_s_per_client']} kB/s per client, {phase['messages_per_s_per_client']} msg/s, "
+                    f"{phase['mesh_messages_per_s']} meshes/s; loop {phase['loop_rate_hz']} Hz, "
+                    f"p99 period {phase['period_p99_ms']} ms; load {phase['load_average_1min']}")
         finally:
             app.stop()
             context.close()
-    result["load_average_1min"] = round(__import__("os").getloadavg()[0], 2)
+    result["target_rate_hz"] = args.rate
+    result["load_average_1min"] = round(os.getloadavg()[0], 2)
     result["machine"] = machine_description()
     return result

@@ -16,7 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="human recording (.jsonl.gz) or ROS bag; default: the bundled recording")
     parser.add_argument("--host", default="127.0.0.1", help="interface to bind (default 127.0.0.1; 0.0.0.0 for all)")
     parser.add_argument("--port", type=int, default=8080, help="HTTP/websocket port (default 8080)")
-    parser.add_argument("--rate", type=float, default=500.0, help="control-loop rate [Hz] (default 500)")
+    parser.add_argument("--rate", type=float, default=1000.0, help="control-loop rate [Hz] (default 1000; 500 also supported)")
 
 
 def run(args: argparse.Namespace) -> int:

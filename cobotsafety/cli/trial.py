@@ -38,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
         participants = [p.strip() for p in args.participants.split(",") if p.strip()]
         robot = "planar" if args.scene == "planar" else args.robot
         server = TrialServer(args.out, participants, args.seed, args.host, args.port, robot=robot).start_server()
-        print(f"cobotsafety trial: participant view {server.url}  operator token: {server.token}", flush=True)
+        print(f"cobotsafety trial: participant view {server.url}  operator view {server.operator_url}  "
+              f"operator token: {server.token}", flush=True)
         try:
             while True:
                 time.sleep(1.0)

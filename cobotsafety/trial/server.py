@@ -1,12 +1,18 @@
-"""The browser trial: a participant view and an operator panel behind a token.
+"""The browser trial: a participant view and, on its own port, an operator view behind a token.
 
-Participant view (every browser at the URL): the robot (the planar arm seen from above, or a 3D
-arm with ``robot="panda"`` etc., its course in a horizontal plane), the course
-(targets in order, triangles), the gizmo to drag, the trial's progress and, in divided
-attention, the colour word with four answer buttons. It never names the condition.
-Operator panel: enter the token printed at start in *Operator*; that browser alone gets the
-participant selector, the session plan (with conditions), Start / Abort / Repeat, and live
-progress. Finished trials go to the ``LogStore`` at once (durable, resumable).
+Participant view (every browser at ``url``): the robot (the planar arm seen from above, or a 3D
+arm with ``robot="panda"`` etc., its course in a horizontal plane), the course (targets in
+order, triangles that flash when touched), the gizmo to drag, "Trial k of 4" with the target
+to reach, and, in divided attention, the colour word with four answer buttons. It never names
+the condition and shows no operator box or login.
+Operator view (``operator_url``, printed with the token at start): enter the token; a wrong
+token is said so and cleared, the right one replaces the login with the participant
+selector-free plan (with conditions), Start / Abort / Repeat and live status. Finished trials
+go to the ``LogStore`` at once (durable, resumable).
+
+The trial, and with it the colour task, starts at the participant's first motion after the
+operator's Start: no colour word is shown before it. The demo's protection zones (F, G) are not
+part of the trial scene: the course's triangles are the only obstacles.
 """
 
 from __future__ import annotations
@@ -30,28 +36,41 @@ from cobotsafety.trial.session import TrialRun
 
 logger = logging.getLogger(__name__)
 INK_RGB = {"red": "#d62728", "green": "#2ca02c", "blue": "#1f77b4", "yellow": "#e6b800"}
+TOUCH_FLASH_S = 0.8
+"""How long a touched triangle stays highlighted and the touch message shows [s]."""
+OBSTACLE_RGB = (200, 40, 40)
+TOUCHED_RGB = (255, 150, 0)
 
 
 class TrialServer:
     def __init__(self, out: Path, participants: list[str], seed: int = 0, host: str = "127.0.0.1",
-                 port: int = 8080, course: Course | None = None, robot: str = "planar"):
+                 port: int = 8080, course: Course | None = None, robot: str = "planar",
+                 operator_port: int | None = None):
         self.store = LogStore(out)
         self.seed = seed
         self.plan = session_plan(participants, seed=seed)
         self.course = course or (planar_course() if robot == "planar" else arm_course())
         self.token = secrets.token_hex(4)
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.operator_server = viser.ViserServer(host=host, port=operator_port or self.server.get_port() + 1,
+                                                 verbose=False)
         self.scene = make_scene(self.server, robot)
         self.teleop = self.scene.robot
-        if robot != "planar":  # the course's triangles are the only obstacles of the task
-            self.teleop.zones = []
-            self.scene.redraw()
+        self._remove_demo_zones()
         self.loop = ControlLoop(self.teleop, LoopSettings())
         self.loop.before_step.append(self._before_step)
         self.current: tuple[PlannedTrial, TrialRun] | None = None
+        self.last_trial: PlannedTrial | None = None
+        """The trial started last (Repeat restarts it, also after an Abort)."""
+        self.status = "Waiting: no trial started yet."
+        """The operator's one-line state of the session (plan status)."""
         self._finished: list[tuple[PlannedTrial, TrialRun]] = []
+        self._operator_plans: list[viser.GuiMarkdownHandle] = []
         self._lock = threading.RLock()
         self._stop = threading.Event()
+        self._touch_until_s = 0.0
+        self._touch_obstacle: int | None = None
+        self._errors_seen = 0
         self._draw_course()
         self._make_participant_gui()
         self.gizmo = self.server.scene.add_transform_controls(
@@ -65,24 +84,42 @@ class TrialServer:
             elif self.current is not None:
                 self.loop.set_gizmo_target(np.asarray(event.target.position, dtype=float))
 
-        @self.server.on_client_connect
+        @self.operator_server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
             self._offer_operator_login(client)
 
     # ---- views -----------------------------------------------------------------------------
+    def _remove_demo_zones(self) -> None:
+        """The course's triangles are the only obstacles: drop the demo's protection zones."""
+        from cobotsafety.app.scene_planar import is_zone  # noqa: PLC0415
+
+        if self.scene.dim == 2:
+            limitations = self.teleop.scene.limitations
+            limitations[:] = [lim for lim in limitations if not is_zone(lim)]
+        else:
+            self.teleop.zones = []
+        self.scene.redraw()
+
     def _draw_course(self) -> None:
         scene = self.server.scene
         z = self.course.height_m or 0.0
         self.target_nodes = [scene.add_icosphere(f"/course/target{i}", radius=self.course.target_radius_m,
                                                  color=(120, 120, 120), position=(x, y, z), opacity=0.6)
                              for i, (x, y) in enumerate(self.course.targets_m)]
+        # Two nodes per triangle, toggled by visibility: a line colour change does not reach a
+        # tab that already drew the line.
+        self.obstacle_nodes = []
         for i, tri in enumerate(self.course.obstacles_m):
             pts = np.array([[*tri[k], z] for k in (0, 1, 1, 2, 2, 0)]).reshape(3, 2, 3)
-            scene.add_line_segments(f"/course/obstacle{i}", pts, (200, 40, 40), thickness=0.004)
+            normal = scene.add_line_segments(f"/course/obstacle{i}", pts, OBSTACLE_RGB, thickness=0.004)
+            touched = scene.add_line_segments(f"/course/obstacle{i}_touched", pts, TOUCHED_RGB, thickness=0.012,
+                                              visible=False)
+            self.obstacle_nodes.append((normal, touched))
 
     def _make_participant_gui(self) -> None:
         gui = self.server.gui
         self.progress = gui.add_markdown("**Waiting for the operator to start the trial.**")
+        self.feedback = gui.add_markdown("")
         self.word = gui.add_html("")
         self.answer_buttons = []
         for colour in COLOURS:
@@ -94,16 +131,24 @@ class TrialServer:
                     if self.current is not None and self.current[1].colour is not None:
                         self.current[1].colour.answer(self.loop.snapshot().t_s, colour)
             self.answer_buttons.append(button)
-        gui.add_folder("Operator")
 
     def _offer_operator_login(self, client: viser.ClientHandle) -> None:
-        with client.gui.add_folder("Operator login"):
-            token = client.gui.add_text("Token", initial_value="")
+        with client.gui.add_folder("Operator login") as folder:
+            token = client.gui.add_text("Token", initial_value="", hint="the token printed when the trial started")
+            feedback = client.gui.add_markdown("Enter the operator token.")
 
         @token.on_update
         def _(_event) -> None:
-            if token.value.strip() == self.token:
+            entered = token.value.strip()
+            if not entered:
+                return
+            if entered == self.token:
+                folder.remove()  # the token leaves the page once accepted
                 self._make_operator_panel(client)
+            elif len(entered) >= len(self.token):
+                token.value = ""
+                feedback.content = "**Wrong token.** Try again."
+                logger.warning("operator login refused (client %s)", client.client_id)
 
     def _make_operator_panel(self, client: viser.ClientHandle) -> None:
         gui = client.gui
@@ -112,17 +157,31 @@ class TrialServer:
             start = gui.add_button("Start next trial")
             abort = gui.add_button("Abort trial")
             repeat = gui.add_button("Repeat last trial")
-        start.on_click(lambda _e: (self.start_next(), setattr(plan, "content", self._plan_text())))
-        abort.on_click(lambda _e: (self.abort(), setattr(plan, "content", self._plan_text())))
-        repeat.on_click(lambda _e: (self.repeat_last(), setattr(plan, "content", self._plan_text())))
+        self._operator_plans.append(plan)
+        start.on_click(lambda _e: (self.start_next(), self._refresh_plans()))
+        abort.on_click(lambda _e: (self.abort(), self._refresh_plans()))
+        repeat.on_click(lambda _e: (self.repeat_last(), self._refresh_plans()))
 
     def _plan_text(self) -> str:
         done = self.store.done()
-        rows = [f"- {'~~' if (t.participant, t.attention, t.condition) in done else ''}{t.participant} "
-                f"#{t.order} {t.attention} / {t.condition}{'~~' if (t.participant, t.attention, t.condition) in done else ''}"
-                for t in self.plan]
-        current = f"**Running:** {self.current[0].participant} {self.current[0].attention} / {self.current[0].condition}\n\n" if self.current else ""
-        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n{current}" + "\n".join(rows)
+        rows = []
+        for t in self.plan:
+            strike = "~~" if (t.participant, t.attention, t.condition) in done else ""
+            rows.append(f"- {strike}{t.participant} #{t.order} {t.attention} / {t.condition}{strike}")
+        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n**{self.status}**\n\n" + "\n".join(rows)
+
+    def _refresh_plans(self) -> None:
+        text = self._plan_text()
+        for plan in list(self._operator_plans):
+            try:
+                if plan.content != text:
+                    plan.content = text
+            except RuntimeError:  # that operator tab has gone
+                self._operator_plans.remove(plan)
+
+    @staticmethod
+    def _describe(trial: PlannedTrial) -> str:
+        return f"{trial.participant} #{trial.order} {trial.attention} / {trial.condition}"
 
     # ---- operator actions ------------------------------------------------------------------
     def start_next(self) -> PlannedTrial | None:
@@ -130,6 +189,7 @@ class TrialServer:
         for trial in self.plan:
             if (trial.participant, trial.attention, trial.condition) not in done:
                 return self.start(trial)
+        self.status = "Session complete: every planned trial is logged."
         return None
 
     def start(self, trial: PlannedTrial) -> PlannedTrial:
@@ -138,25 +198,39 @@ class TrialServer:
             self.loop.method = trial.condition  # never shown to the participant
             k = self.plan.index(trial)
             self.current = (trial, TrialRun(self.course, trial.attention == "divided", self.seed * 1000 + k))
+            self.last_trial = trial
+            self.status = f"Running: {self._describe(trial)} (starts at the first motion)"
+            self._errors_seen = 0
         for button in self.answer_buttons:
             button.visible = trial.attention == "divided"
-        self.progress.content = f"**Trial {trial.order} of 4.** Reach target 1 of {len(self.course.targets_m)}."
+        self.word.content = ""
+        self.feedback.content = ""
+        self.progress.content = self._progress_text(trial, 0)
         return trial
 
     def abort(self) -> None:
         with self._lock:
-            self.current = None
+            aborted, self.current = self.current, None
+            if aborted is not None:
+                self.status = f"Aborted: {self._describe(aborted[0])} (not logged; Repeat restarts it)"
         self.loop.release_gizmo()
         self.progress.content = "**Trial stopped. Waiting for the operator.**"
         self.word.content = ""
+        self.feedback.content = ""
+        for button in self.answer_buttons:
+            button.visible = False
 
-    def repeat_last(self) -> None:
+    def repeat_last(self) -> PlannedTrial | None:
+        """Restart the trial started last, whether it is running, aborted or finished."""
         with self._lock:
-            trial = self.current[0] if self.current else None
-        if trial is not None:
-            self.start(trial)
+            trial = self.last_trial
+        return None if trial is None else self.start(trial)
 
     # ---- loop and rendering ------------------------------------------------------------
+    def _progress_text(self, trial: PlannedTrial, next_target: int) -> str:
+        count = len(self.course.targets_m)
+        return f"**Trial {trial.order} of 4.** Reach target {min(next_target + 1, count)} of {count}."
+
     def _before_step(self, t_s: float) -> None:
         if self.current is None:
             return
@@ -164,11 +238,25 @@ class TrialServer:
         report = self.loop._report
         moving = report is not None and float(np.linalg.norm(report.v_executed_m_s)) > 1e-3
         run.update(t_s, self.teleop.p_base_ee_m, moving)
-        if run.colour is not None:  # the secondary task runs from the operator's start
+        if run.colour is not None and run.started_s is not None:  # the colour task starts with the trial
             run.colour.tick(t_s)
         if run.finished:
             self._finished.append(self.current)
             self.current = None
+
+    def _show_touches(self, run: TrialRun | None) -> None:
+        now = time.perf_counter()
+        if run is not None and len(run.errors) > self._errors_seen:
+            self._touch_obstacle = run.errors[-1].get("obstacle")
+            self._touch_until_s = now + TOUCH_FLASH_S
+            self._errors_seen = len(run.errors)
+            self.feedback.content = "**Obstacle touched!** Keep clear of the triangles."
+        flashing = now < self._touch_until_s
+        for i, (normal, touched) in enumerate(self.obstacle_nodes):
+            on = flashing and i == self._touch_obstacle
+            touched.visible, normal.visible = on, not on
+        if not flashing and self.feedback.content:
+            self.feedback.content = ""
 
     def render_once(self) -> None:
         snapshot = self.loop.snapshot()
@@ -181,18 +269,27 @@ class TrialServer:
         for trial, run in finished:
             record = run.record(trial.participant, trial.condition, trial.order, run.seed)
             self.store.append(record, np.array(run.trajectory).reshape(-1, 4))
+            self.status = f"Finished: {self._describe(trial)} (logged). Start the next trial."
             self.progress.content = "**Trial complete. Thank you! Waiting for the operator.**"
             self.word.content = ""
             for button in self.answer_buttons:
                 button.visible = False
+        self._show_touches(current[1] if current is not None else None)
         if current is not None:
-            _, run = current
+            trial, run = current
+            if run.started_s is not None:
+                self.status = f"Running: {self._describe(trial)}, target {run.next_target + 1}"
             for i, node in enumerate(self.target_nodes):
                 node.color = (40, 160, 40) if i == run.next_target else ((150, 150, 150) if i > run.next_target else (200, 200, 200))
-            self.progress.content = f"Reach target {min(run.next_target + 1, len(self.target_nodes))} of {len(self.target_nodes)}."
+            text = self._progress_text(trial, run.next_target)
+            if text != self.progress.content:
+                self.progress.content = text
             if run.colour is not None and run.colour.current is not None:
                 s = run.colour.current
-                self.word.content = f'<div style="font-size:48px;font-weight:bold;color:{INK_RGB[s.ink]}">{s.word.upper()}</div>'
+                html = f'<div style="font-size:48px;font-weight:bold;color:{INK_RGB[s.ink]}">{s.word.upper()}</div>'
+                if html != self.word.content:
+                    self.word.content = html
+        self._refresh_plans()
 
     def start_server(self) -> "TrialServer":
         self.loop.start()
@@ -211,7 +308,12 @@ class TrialServer:
     def url(self) -> str:
         return f"http://{self.server.get_host()}:{self.server.get_port()}"
 
+    @property
+    def operator_url(self) -> str:
+        return f"http://{self.operator_server.get_host()}:{self.operator_server.get_port()}"
+
     def stop(self) -> None:
         self._stop.set()
         self.loop.stop()
         self.server.stop()
+        self.operator_server.stop()
