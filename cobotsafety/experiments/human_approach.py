@@ -145,7 +145,7 @@ def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", rob
         replay_t = replay.start_s + t
         capsules_now = replay.capsules_at(replay_t) if t <= replay.duration_s else None
         if capsules_now is not None and capsules_now.present:
-            arm.set_human(t, capsules_now.p0_b_m, capsules_now.p1_b_m, capsules_now.radius_m, capsules_now.names)
+            arm.set_human(capsules_now)
             log["torso"].append(0.5 * (capsules_now.p0_b_m[0, :2] + capsules_now.p1_b_m[0, :2]))
         else:
             arm.clear_human()  # nobody in range, or the recording is over: the human has left
