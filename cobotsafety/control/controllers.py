@@ -66,18 +66,9 @@ class HumanAwareArm:
     def state(self):
         return self.teleop.state
 
-    def set_human(self, human: HumanCapsules | None, *legacy) -> None:
+    def set_human(self, human: HumanCapsules | None) -> None:
         """The human now (robot base frame); None or an absent human clears it. Without
-        end-point velocities, they are estimated here (``HumanVelocityEstimator``).
-
-        ``set_human(t_s, p0, p1, radius, names)`` (the former signature) is still accepted for
-        callers not yet ported; it builds the ``HumanCapsules``.
-        """
-        if legacy:
-            p0, p1, radius, *names = legacy
-            radius = np.asarray(radius, dtype=float).reshape(-1)
-            names = tuple(names[0]) if names and len(names[0]) else tuple(f"human {i}" for i in range(radius.size))
-            human = HumanCapsules(p0, p1, radius, names, t_s=float(human))
+        end-point velocities, they are estimated here (``HumanVelocityEstimator``)."""
         if human is not None and human.present and human.v0_b_m_s is None:
             human = self.velocity.update(human)
         elif human is None or not human.present:
