@@ -86,6 +86,85 @@ def slide(v_desired, normals, bounds=None) -> np.ndarray:
     return v + _least_distance(N, h)
 
 
+#: Weight of the command in the violation stage of ``relax`` [-]: among the commands that
+#: violate the soft rows least, the smallest; an extra 1 m/s of command weighs as much as
+#: 0.01 m/s of violation, so the violation found is within ~1e-4 m/s of the exact minimum.
+RELAXATION_COMMAND_WEIGHT = 1e-2
+
+
+def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.ndarray]:
+    """``slide`` when it can; when the half-spaces contradict each other, violate the ``soft``
+    rows as little as possible (least squares) while every other row stays hard.
+
+    Two stages (a lexicographic relaxation):
+
+    1. ``s* = argmin ||s||^2 + w^2 ||v||^2`` over ``(v, s)`` subject to
+       ``normals[hard] @ v >= bounds[hard]``, ``normals[soft] @ v + s >= bounds[soft]`` and
+       ``normals[soft] @ v >= floor[soft]`` (``w = RELAXATION_COMMAND_WEIGHT``; ``s*`` is the
+       least-squares violation);
+    2. the command closest to ``v_desired`` with the soft bounds lowered by ``s*``:
+       ``slide(v_desired, normals, bounds - s*)``.
+
+    Args:
+        v_desired: Shape (n,).
+        normals: Shape (m, n).
+        bounds: Shape (m,).
+        soft: Shape (m,) bool, the rows that may give way.
+        floor: Shape (m,) or None (no floor): the soft rows give way down to this bound at
+            most (a hard row ``normals @ v >= floor``; ``0``: "approach nothing"). The hard rows
+            and the floors must admit a common command (e.g. all <= 0: ``v = 0``).
+
+    Returns:
+        ``(v (n,), violation (m,))``: the command and how much each row's bound was lowered
+        (zero for the hard rows, and for all rows when ``slide`` alone succeeded).
+
+    Raises:
+        ValueError: wrong shapes or non-finite inputs (as ``slide``).
+        InfeasibleConstraintsError: the hard rows alone contradict each other (or the active
+            set degenerated on dependent rows).
+    """
+    v, N, b = _as_inputs(v_desired, normals, bounds)
+    soft = np.asarray(soft, dtype=bool).reshape(-1)
+    if soft.shape != b.shape:
+        raise ValueError(f"soft must have shape {b.shape} to match bounds, got {soft.shape}")
+    violation = np.zeros_like(b)
+    try:
+        return slide(v, N, b), violation
+    except (InfeasibleConstraintsError, np.linalg.LinAlgError):  # degenerate rows count as contradicting
+        if not np.any(soft):
+            raise InfeasibleConstraintsError(f"the {N.shape[0]} hard half-spaces contradict each other") from None
+    floors = np.full_like(b, -np.inf) if floor is None else np.broadcast_to(np.asarray(floor, dtype=float), b.shape)
+    if np.any(np.isnan(floors)):
+        raise ValueError("floor contains NaN")
+    n, k = N.shape[1], int(soft.sum())
+    soft_rows = np.flatnonzero(soft)
+    capped = np.flatnonzero(np.isfinite(floors[soft_rows]))  # positions among the soft rows
+    # Stage 1 as a least-distance problem in x = (w v, s): the hard rows on w v, the soft rows
+    # on (w v, s), and each floor as a cap on its slack, s_i <= b_i - floor_i (which with
+    # N_i v + s_i >= b_i gives N_i v >= floor_i, and keeps the rows well conditioned).
+    G = np.zeros((N.shape[0] + capped.size, n + k))
+    G[:N.shape[0], :n] = N / RELAXATION_COMMAND_WEIGHT
+    G[soft_rows, n + np.arange(k)] = 1.0
+    G[N.shape[0] + np.arange(capped.size), n + capped] = -1.0
+    h = np.concatenate([b, floors[soft_rows[capped]] - b[soft_rows[capped]]])
+    try:
+        x = slide(np.zeros(n + k), G, h)
+    except np.linalg.LinAlgError:
+        raise InfeasibleConstraintsError("the relaxation's active set degenerated (dependent rows)") from None
+    v_least = x[:n] / RELAXATION_COMMAND_WEIGHT
+    violation[soft] = np.maximum(b[soft] - N[soft] @ v_least, 0.0)
+    try:
+        v_relaxed = slide(v, N, b - violation)
+    except (InfeasibleConstraintsError, np.linalg.LinAlgError):  # rounding at the relaxed bounds
+        v_relaxed = v_least  # which satisfies them
+    # Never hand out a command that breaks a hard row or a floor (an ill-conditioned stage).
+    scale = np.maximum(1.0, np.abs(b))
+    floor_ok = ~np.isfinite(floors) | ~soft | (N @ v_relaxed >= floors - 1e-6 * np.maximum(1.0, np.abs(floors)))
+    if np.any((N @ v_relaxed < b - violation - 1e-6 * scale)) or not np.all(floor_ok):
+        raise InfeasibleConstraintsError("the relaxation did not meet its hard rows (ill-conditioned rows)")
+    return v_relaxed, violation
+
+
 def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Return argmin ||x|| subject to G x >= h.
 

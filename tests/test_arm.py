@@ -38,8 +38,8 @@ def test_every_robot_loads_by_name_and_unknown_names_list_the_known_ones():
         model, _, spec = load_robot(name)
         assert model.existFrame(spec.ee_frame)
         assert len(spec.home_q) == model.nq
-    with pytest.raises(UnknownRobotError, match="panda.*ur5.*kinova.*z1.*xarm7"):
-        load_robot("iiwa")
+    with pytest.raises(UnknownRobotError, match="panda.*ur5.*kinova.*z1.*xarm7.*iiwa"):
+        load_robot("kr6")
 
 
 def test_continuous_joint_robot_has_nq_different_from_nv():
@@ -121,7 +121,7 @@ def test_constraint_normals_match_finite_differences(state):
 
 
 def test_capsules_cover_every_collision_vertex():
-    for name in ("panda", "ur5", "kinova", "z1", "xarm7"):
+    for name in ("panda", "ur5", "kinova", "z1", "xarm7", "iiwa"):
         model, collision, _ = load_robot(name)
         capsules = {c.joint: c for c in load_capsules(name)}
         for joint, points in link_points(collision, model).items():
@@ -139,8 +139,10 @@ def test_three_active_constraints_slide_along_an_edge_like_a_qp():
     zones = [HalfSpaceZone("floor", (0, 0, p[2] - 0.1), (0, 0, -1)), HalfSpaceZone("wall", (p[0] + 0.1, 0, 0), (1, 0, 0))]
     # Only the hand and the last link meet these planes.
     constraints = [ZoneConstraint(z, skip_capsules=5) for z in zones]
-    robot = ArmTeleop("panda", zones=[], extra_constraints=constraints)
-    state, params = robot.state, ArmParams()
+    # Without the acceleration bound: one step shows the projection alone.
+    params = ArmParams(max_accel_m_s2=np.inf)
+    robot = ArmTeleop("panda", zones=[], extra_constraints=constraints, params=params)
+    state = robot.state
     for _ in range(400):  # into the corner
         robot.step(np.array([0.3, 0.0, -0.3]), 0.002)
     M, c = mapping(state, params, robot.R_world_ee_ref)
@@ -183,7 +185,7 @@ def test_recovery_from_inside_a_zone_allows_only_moves_that_reduce_the_violation
 
 
 def test_singular_pose_gives_finite_smooth_commands():
-    robot = ArmTeleop("ur5", zones=[])
+    robot = ArmTeleop("ur5", zones=[], params=ArmParams(max_accel_m_s2=np.inf))  # the mapping alone, step by step
     robot.reach = ReachLimits(tuple(robot.state.capsule_p0[0]), 0.0, 10.0)  # the singularity alone
     state = robot.state
     state.q = np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0])  # arm stretched up: singular

@@ -16,6 +16,7 @@ the same half-spaces are applied to its joint velocities.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,10 +27,13 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 from cobotsafety.control.human_velocity import HumanVelocityEstimator
 from cobotsafety.control.potential_field import PotentialFieldParams, potential_field_qdot
 from cobotsafety.control.ssm import SsmParams, ssm_halfspaces
+from cobotsafety.human.body import HumanCapsules
 from cobotsafety.projection import slide
 from cobotsafety.teleop import StepReport
 
 CONTROLLERS = ("anticipative", "reactive", "stop")
+#: How long the anticipative arm yields [s] once contradicting retreats left it no motion.
+YIELD_DWELL_S = 0.3
 
 
 @dataclass
@@ -41,7 +45,7 @@ class HumanStep:
 
 
 class HumanAwareArm:
-    """An arm that knows where the human is. ``set_human`` before every ``step``."""
+    """An arm that knows where the human is. ``set_human(HumanCapsules)`` before every ``step``."""
 
     def __init__(self, robot: str = "panda", zones: list | None = None, params: ArmParams | None = None,
                  human: HumanCapsulesConstraint | None = None, ssm: SsmParams | None = None,
@@ -53,17 +57,26 @@ class HumanAwareArm:
         self.field = field or PotentialFieldParams(critical_m=self.human.critical_m,
                                                    influence_m=self.human.activation_m - self.human.critical_m)
         self.velocity = HumanVelocityEstimator()
+        self.clock_s = 0.0
+        """Time stepped so far [s] (the yield decision's clock)."""
+        self.yield_until_s = -np.inf
+        """Until then the anticipative arm yields: it takes no command and only gives way."""
 
     @property
     def state(self):
         return self.teleop.state
 
-    def set_human(self, t_s: float, p0, p1, radius, names=()) -> None:
-        v0, v1 = self.velocity.update(t_s, p0, p1)
-        self.human.set_human(p0, p1, radius, v0, v1, names)
+    def set_human(self, human: HumanCapsules | None) -> None:
+        """The human now (robot base frame); None or an absent human clears it. Without
+        end-point velocities, they are estimated here (``HumanVelocityEstimator``)."""
+        if human is not None and human.present and human.v0_b_m_s is None:
+            human = self.velocity.update(human)
+        elif human is None or not human.present:
+            self.velocity.reset()
+        self.human.set_human(human)
 
     def clear_human(self) -> None:
-        self.human.set_human(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        self.set_human(None)
 
     def _ssm_rows(self, M, c):
         measures = self.human.measures(self.state)
@@ -88,9 +101,25 @@ class HumanAwareArm:
                         v = slide(v, rows.normals, rows.bounds)
                     except ValueError:
                         v = np.zeros(3)
-            report = self.teleop.step(v, dt_s, controller)
+            yielding = controller == "anticipative" and self.clock_s < self.yield_until_s
+            report = self.teleop.step(np.zeros(3) if yielding else v, dt_s, controller)
+            if controller == "anticipative":
+                report = self._yield_decision(report, yielding)
+        self.clock_s += dt_s
         d, pr, ph = self.human.minimum(state)
         return HumanStep(report, d, pr, ph)
+
+    def _yield_decision(self, report: StepReport, yielding: bool) -> StepReport:
+        """When contradicting retreats leave the arm no motion, it *decides* to yield for
+        ``YIELD_DWELL_S`` (zero command: it only gives way), instead of stopping and going
+        at every step while the human stays; the report says so."""
+        blocked = report.reason.startswith("retreats contradict") and np.linalg.norm(report.v_commanded_m_s) < 1e-3
+        if blocked:
+            self.yield_until_s = self.clock_s + YIELD_DWELL_S
+        if blocked or yielding:
+            reason = "yielding: " + (report.reason or "the retreats contradicted each other")
+            return dataclasses.replace(report, stopped=True, reason=reason)
+        return report
 
     def _reactive_step(self, v_att: np.ndarray, dt_s: float, ssm: bool) -> StepReport:
         state = self.state
