@@ -13,7 +13,7 @@ WORKDIR /opt/cobotsafety
 COPY . .
 RUN python3 -m pip install -q -e ".[test]"
 # Compile and cache the numba kernels (capsule distance, arm mapping) now, not at first start.
-RUN python3 -c "import numpy as np; from cobotsafety.control.teleop import HumanAwareTeleop; \
+RUN python3 -c "import numpy as np; from cobotsafety.control.human_aware import HumanAwareTeleop; \
 HumanAwareTeleop().step(np.zeros(3), 0.002)"
 
 EXPOSE 8080

@@ -19,10 +19,10 @@ BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
 def bundled_recording() -> Path:
-    """The recording shipped with the package (``assets/recordings/approach.jsonl.gz``)."""
+    """The recording shipped with the package (``assets/recordings/reach-over.jsonl.gz``)."""
     from importlib.resources import files  # noqa: PLC0415
 
-    return Path(str(files("cobotsafety.assets") / "recordings" / "approach.jsonl.gz"))
+    return Path(str(files("cobotsafety.assets") / "recordings" / "reach-over.jsonl.gz"))
 
 
 def load_replay(path: Path):

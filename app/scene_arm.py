@@ -8,7 +8,6 @@ arm holding still, or creeping in its null space, sends nothing).
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import viser
@@ -56,10 +55,11 @@ class ArmView:
         self.grid = server.scene.add_grid(f"{ROOT}/grid", width=2.0, height=2.0, cell_size=0.1, section_size=0.5)
         self.urdf = None
         if state.spec.loader is not None:
-            import example_robot_data  # noqa: PLC0415
             from viser.extras import ViserUrdf  # noqa: PLC0415
 
-            path = Path(example_robot_data.load(state.spec.loader).urdf)
+            from cobotsafety.arm.robots import urdf_path  # noqa: PLC0415
+
+            path = urdf_path(state.spec.name)
             self.urdf = ViserUrdf(server, path, root_node_name=f"{ROOT}/urdf")
             self.joint_names = tuple(self.urdf.get_actuated_joint_names())
         self.capsules = []

@@ -62,7 +62,7 @@ class ArmScene:
     def __init__(self, server: viser.ViserServer, robot_name: str | None = None):
         from cobotsafety.app.scene_arm import ArmView  # noqa: PLC0415
         from cobotsafety.arm.robots import DEFAULT_ROBOT  # noqa: PLC0415
-        from cobotsafety.control.teleop import HumanAwareTeleop  # noqa: PLC0415
+        from cobotsafety.control.human_aware import HumanAwareTeleop  # noqa: PLC0415
 
         self.name = robot_name or DEFAULT_ROBOT
         # The human capsules of the replay are moving protection zones here (issue 5): the

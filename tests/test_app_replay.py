@@ -48,13 +48,13 @@ def test_invalid_file_is_refused_and_previous_replay_keeps_running(control, tmp_
     bad.write_bytes(content)
     message = control.load(bad)
     assert message.startswith("refused broken.jsonl.gz: ") and "broken.jsonl.gz" in message[24:]
-    assert control.replay is previous and control.name == "approach.jsonl.gz"
+    assert control.replay is previous and control.name == "reach-over.jsonl.gz"
 
 
 def test_missing_bag_is_refused(control, tmp_path):
     message = control.load(tmp_path / "nothing.bag")
     assert message.startswith("refused nothing.bag")
-    assert control.name == "approach.jsonl.gz"
+    assert control.name == "reach-over.jsonl.gz"
 
 
 def brute_force(rp0, rp1, rr, human, samples=201):

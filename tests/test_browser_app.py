@@ -221,7 +221,7 @@ def test_open_tab_follows_highlight_fig9_pull_and_refused_upload(browser, app):
     body = page.inner_text("body")
     assert "broken.jsonl.gz" in body
     assert "cobotsafety-upload" not in body and "/tmp" not in body
-    assert app.replay.name == "approach.jsonl.gz"  # the previous replay stays
+    assert app.replay.name == "reach-over.jsonl.gz"  # the previous replay stays
     page.close()
 
 

@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> dict:
     from cobotsafety.sensors.laser_scan import LaserScan
     from cobotsafety.sensors.legs import estimate_background
 
-    rec = load_recording(files("cobotsafety.assets") / "recordings" / "approach.jsonl.gz")
+    rec = load_recording(files("cobotsafety.assets") / "recordings" / "reach-over.jsonl.gz")
     g = rec.laser
     window = np.flatnonzero((rec.laser_t_s > 9.0) & (rec.laser_t_s < 13.0))
     scans = [LaserScan(g["angle_min"], g["angle_increment"], g["range_min"], g["range_max"], rec.laser_ranges_m[i])
