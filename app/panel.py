@@ -86,15 +86,17 @@ def play_button_look(playing: bool) -> tuple[str, viser.Icon]:
 
 def status_text(mode: str, rate_hz: float, min_distance_m: float | None, binding: tuple[str, ...],
                 p_base_ee_m, stopped: bool, ssm: bool | None = None,
-                distance_label: str | None = "min distance") -> str:
+                distance_label: str | None = "min distance", reason: str = "", contradictions: int = 0) -> str:
     """The status: mode, SSM on/off (3D only: ``ssm=None`` hides it), loop rate [Hz], minimum
-    distance [mm] (``distance_label`` says to what; None hides it), active constraints,
+    distance [mm] (``distance_label`` says to what; None hides it), active constraints, why the
+    arm stopped (``reason``), how many steps met contradicting retreats (``contradictions``),
     end-effector position [mm]."""
     distance = "—" if min_distance_m is None else f"{min_distance_m * 1e3:.0f} mm"
     active = ", ".join(dict.fromkeys(binding)) or "none"
     x, y, z = (float(c) * 1e3 for c in p_base_ee_m)
-    halted = " · **stopped**" if stopped else ""
+    halted = (f" · **stopped** ({reason})" if reason else " · **stopped**") if stopped else ""
+    relaxed = f" · contradicting retreats: **{contradictions}** steps" if contradictions else ""
     monitoring = "" if ssm is None else f" · SSM **{'on' if ssm else 'off'}**"
     shown = "" if distance_label is None else f"{distance_label} **{distance}** · "
     return (f"**{mode}**{monitoring} · loop **{rate_hz:.0f} Hz** · {shown}"
-            f"active: **{active}**{halted}  \nEE x={x:.1f} y={y:.1f} z={z:.1f} mm")
+            f"active: **{active}**{halted}{relaxed}  \nEE x={x:.1f} y={y:.1f} z={z:.1f} mm")

@@ -387,7 +387,9 @@ class DemoApp:
             text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
                                report.binding if report is not None else (), snapshot.p_base_ee_m,
                                bool(report is not None and report.stopped), ssm=ssm,
-                               distance_label="human distance" if scene.dim == 3 else None)
+                               distance_label="human distance" if scene.dim == 3 else None,
+                               reason=report.reason if report is not None else "",
+                               contradictions=report.contradictions if report is not None else 0)
             if human is not None and human.stale:
                 text += f"  \n**sensor stale**: {human.reason}"
             if text != self.panel.status.content:

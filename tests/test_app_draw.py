@@ -61,6 +61,15 @@ def test_status_text_names_mode_rate_distance_and_constraints():
                        np.array([-0.2, 0.03, 0.0]), True)
     assert "**stop**" in text and "500 Hz" in text and "234 mm" in text
     assert "B joint 2 upper, F bar" in text and "stopped" in text and "EE x=-200.0 y=30.0" in text
+    assert "contradicting" not in text
+
+
+def test_status_text_says_why_the_arm_stopped_and_counts_contradicting_retreats():
+    text = status_text("anticipative", 1000.0, 0.3, ("human torso",), np.zeros(3), True, ssm=True,
+                       reason="yielding: human torso", contradictions=12)
+    assert "**stopped** (yielding: human torso)" in text and "contradicting retreats: **12** steps" in text
+    moving = status_text("anticipative", 1000.0, 0.3, (), np.zeros(3), False, reason="relaxed", contradictions=0)
+    assert "stopped" not in moving and "contradicting" not in moving
 
 
 from hypothesis import given, settings
