@@ -1,0 +1,189 @@
+"""One compiled 3D arm step on packed arrays: the arithmetic of ``cobotsafety.arm.step.step``.
+
+Kinematics, the mapping, every measure row, the secondary-task scale, the half-spaces, the
+projection, the integration and the safety net's re-check in one call; ``arm.step`` describes
+the maths and is the spec. ``status``: 0 done; 1 the reference must take this step (a box zone
+touched or penetrated, or the safety net would have to bisect).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from cobotsafety.arm.mapping_kernel import mapping_kernel
+from cobotsafety.arm.packed_kinematics import attached_point, forward_kinematics, frame_jacobian, integrate, log3
+from cobotsafety.arm.packed_measures import JOINT, capsule_points, constraint_distances, measure_rows
+from cobotsafety.arm.packed_projection import slide_kernel
+
+CROSSING_TOLERANCE_M = 1e-9
+BINDING_TOLERANCE = 1e-9
+METHOD_ANTICIPATIVE, METHOD_STOP = 0, 1
+STATUS_DONE, STATUS_FALLBACK = 0, 1
+
+
+@numba.njit(cache=True)
+def kinematics(q, robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
+               cap_joint, cap_p0l, cap_p1l):  # pragma: no cover - compiled
+    """Joint placements, end-effector pose and Jacobian (6, nv), capsule points at ``q``."""
+    nj, nv, ee_joint = jtype.shape[0], robot_int[0], robot_int[1]
+    oR, op = np.empty((nj, 3, 3)), np.empty((nj, 3))
+    forward_kinematics(q, jtype, parent, idx_q, placement_R, placement_t, oR, op)
+    p_ee = np.empty(3)
+    attached_point(oR, op, ee_joint, ee_t, p_ee)
+    R_ee = oR[ee_joint] @ ee_R
+    J = np.empty((6, nv))
+    frame_jacobian(p_ee, ee_joint, oR, op, jtype, idx_v, support, J)
+    c = cap_joint.shape[0]
+    p0, p1, origins = np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3))
+    capsule_points(oR, op, cap_joint, cap_p0l, cap_p1l, p0, p1, origins)
+    return oR, op, p_ee, R_ee, J, p0, p1, origins
+
+
+@numba.njit(cache=True)
+def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
+                robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
+                cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim, lever_m: float,
+                kinds, reals, ints, before_start, n_before: int, max_rows: int,
+                hp0, hp1, hr, hv0, hv1, params):  # pragma: no cover - compiled
+    """One step. ``params``: ArmParams as floats (see ``packed.params_vector``).
+
+    Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), binding (m,),
+    tags (m, 3), p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
+    """
+    (max_speed, width_m, width_rad, activation_m, w_threshold, damping_max, orientation_gain,
+     centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain) = (
+        params[0], params[1], params[2], params[3], params[4], params[5], params[6], params[7], params[8],
+        params[9], params[10], params[11])
+    nv = robot_int[0]
+    k = vk.shape[0]
+    oR, op, p_ee, R_ee, J6, p0, p1, origins = kinematics(q, robot_int, jtype, parent, idx_q, idx_v, placement_R,
+                                                        placement_t, support, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l)
+    # ---- mapping (``step.mapping``) -----------------------------------------------------------
+    J = np.ascontiguousarray(J6[:k])
+    J_ang = np.ascontiguousarray(J6[3:])
+    error = log3(R_ref @ R_ee.T) if with_orientation else np.zeros(3)
+    centering = np.zeros(nv)
+    if limited.shape[0] and centering_gain > 0:
+        for i in range(limited.shape[0]):
+            iq, iv = limited[i, 0], limited[i, 1]
+            middle = 0.5 * (lower[iq] + upper[iq])
+            span = upper[iq] - lower[iq]
+            centering[iv] = -centering_gain * (q[iq] - middle) / max(span, 1e-6)
+    M, c = mapping_kernel(J, J_ang, error, centering, damping_max, w_threshold, orientation_gain, 0.5 * vlim,
+                          with_orientation)
+    # ---- measures -----------------------------------------------------------------------------
+    dist, A, rate = np.empty(max_rows), np.empty((max_rows, nv)), np.empty(max_rows)
+    angular, tag = np.empty(max_rows, dtype=np.bool_), np.empty((max_rows, 3), dtype=np.int64)
+    before = np.empty(n_before)
+    m, ok = measure_rows(kinds, reals, ints, q, p_ee, J6, oR, op, p0, p1, radius, origins, cap_joint, jtype, idx_v,
+                         support, lower, upper, limited, hp0, hp1, hr, hv0, hv1, activation_m, dist, A, rate, angular,
+                         tag, before, before_start)
+    empty_f = np.zeros(0)
+    if not ok:
+        return (STATUS_FALLBACK, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f, np.zeros(0, dtype=np.bool_),
+                np.zeros((0, 3), dtype=np.int64), p_ee, R_ee, J6, p0, p1, origins)
+    dist, A, rate, angular, tag = dist[:m], A[:m], rate[:m], angular[:m], tag[:m]
+    buffer = np.where(angular, buffer_rad, buffer_m)
+    # ---- secondary-task scale (``step.secondary_scale``) ---------------------------------------
+    if m > 0:
+        ac = A @ c
+        scale = np.inf
+        any_toward = False
+        for i in range(m):
+            if ac[i] < 0.0:
+                any_toward = True
+                d = dist[i] - buffer[i]
+                allowed = -d / dt_s if d > 0.0 else 0.0
+                allowed = min(allowed - rate[i], 0.0)
+                scale = min(scale, allowed / ac[i])
+        if any_toward:
+            c = c * min(max(scale, 0.0), 1.0)
+    # ---- half-spaces (``step.build_halfspaces``) ------------------------------------------------
+    hard = method != METHOD_ANTICIPATIVE
+    normals = A @ M
+    secondary = A @ c
+    offset = secondary + rate
+    rate_desired = normals @ vk + offset
+    n_rows = m + 2 * nv + 2 * k
+    all_normals = np.empty((n_rows, k))
+    all_bounds = np.empty(n_rows)
+    for i in range(m):
+        width = (width_rad if angular[i] else width_m) * (not hard)
+        d = dist[i] - buffer[i]
+        bound = -recovery_gain * d if d <= 0.0 else -d / dt_s
+        if width > 0 and d > 0 and d < width and rate_desired[i] < 0:
+            bound = max(bound, d / width * rate_desired[i])
+        all_bounds[i] = min(bound - rate[i], max_speed) - secondary[i]
+        all_normals[i] = normals[i]
+    vmax = vlim * velocity_limit_scale
+    for i in range(nv):
+        all_normals[m + i] = M[i]
+        all_normals[m + nv + i] = -M[i]
+        all_bounds[m + i] = -vmax[i] - c[i]
+        all_bounds[m + nv + i] = -vmax[i] + c[i]
+    for a in range(k):
+        for b in range(k):
+            all_normals[m + 2 * nv + a, b] = 1.0 if a == b else 0.0
+            all_normals[m + 2 * nv + k + a, b] = -1.0 if a == b else 0.0
+        all_bounds[m + 2 * nv + a] = -max_speed
+        all_bounds[m + 2 * nv + k + a] = -max_speed
+    keep = np.ones(n_rows, dtype=np.bool_)
+    for i in range(m):
+        s = 0.0
+        for b in range(k):
+            s += all_normals[i, b] * all_normals[i, b]
+        keep[i] = all_bounds[i] > -2.0 * max_speed * np.sqrt(s) - 1e-12
+    N = all_normals[keep]
+    bnd = all_bounds[keep]
+    tags = np.full((n_rows, 3), -1, dtype=np.int64)
+    tags[:m] = tag
+    for i in range(2 * nv + 2 * k):
+        tags[m + i, 0] = -1
+        tags[m + i, 1] = i
+    tags = tags[keep]
+    # ---- projection (``filter.project`` and the relaxation in ``step.step``) -------------------
+    stopped = False
+    if method == METHOD_ANTICIPATIVE:
+        command, status = slide_kernel(vk, N, bnd)
+        infeasible = status != 0
+        stopped = infeasible or (np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12))
+        if stopped and np.any(bnd > 0):
+            bnd = np.minimum(bnd, 0.0)
+            command, status = slide_kernel(vk, N, bnd)
+            infeasible = status != 0
+            stopped = infeasible or (np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12))
+        if infeasible:
+            binding = np.ones(N.shape[0], dtype=np.bool_)
+        else:
+            binding = N @ command - bnd <= BINDING_TOLERANCE
+        qdot = M @ command if stopped else M @ command + c
+    else:  # stop
+        binding = N @ vk < bnd - 1e-12
+        stopped = np.any(binding)
+        command = np.zeros(k) if stopped else vk.copy()
+        qdot = np.zeros(nv) if stopped else M @ vk + c
+    # ---- integrate and re-check (``step.integrate_with_safety_net``) ---------------------------
+    travel = np.abs(qdot) * dt_s
+    reach_linear = lever_m * travel.sum() + CROSSING_TOLERANCE_M
+    reach_angular = (travel.max() if travel.shape[0] else 0.0) + CROSSING_TOLERANCE_M
+    q_next = q.copy()
+    integrate(q, qdot * dt_s, jtype, idx_q, idx_v, q_next)
+    oR2, op2, p_ee2, R_ee2, J62, p02, p12, origins2 = kinematics(
+        q_next, robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t, cap_joint,
+        cap_p0l, cap_p1l)
+    for con in range(kinds.shape[0]):
+        part = before[before_start[con]:before_start[con + 1]]
+        if part.shape[0] == 0:
+            continue
+        reach = reach_angular if kinds[con] == JOINT else reach_linear
+        if part.min() > reach:
+            continue
+        after, ok = constraint_distances(kinds[con], reals[con], ints[con], q_next, p_ee2, p02, p12, radius, lower,
+                                         upper, limited, hp0, hp1, hr, 0.0)
+        if not ok:
+            return (STATUS_FALLBACK, q, qdot, command, stopped, N, bnd, binding, tags, p_ee, R_ee, J6, p0, p1, origins)
+        for i in range(part.shape[0]):
+            if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
+                return (STATUS_FALLBACK, q, qdot, command, stopped, N, bnd, binding, tags, p_ee, R_ee, J6, p0, p1, origins)
+    return (STATUS_DONE, q_next, qdot, command, stopped, N, bnd, binding, tags, p_ee2, R_ee2, J62, p02, p12, origins2)
