@@ -38,8 +38,8 @@ def test_every_robot_loads_by_name_and_unknown_names_list_the_known_ones():
         model, _, spec = load_robot(name)
         assert model.existFrame(spec.ee_frame)
         assert len(spec.home_q) == model.nq
-    with pytest.raises(UnknownRobotError, match="panda.*ur5.*kinova.*z1.*xarm7"):
-        load_robot("iiwa")
+    with pytest.raises(UnknownRobotError, match="panda.*ur5.*kinova.*z1.*xarm7.*iiwa"):
+        load_robot("kr6")
 
 
 def test_continuous_joint_robot_has_nq_different_from_nv():
@@ -121,7 +121,7 @@ def test_constraint_normals_match_finite_differences(state):
 
 
 def test_capsules_cover_every_collision_vertex():
-    for name in ("panda", "ur5", "kinova", "z1", "xarm7"):
+    for name in ("panda", "ur5", "kinova", "z1", "xarm7", "iiwa"):
         model, collision, _ = load_robot(name)
         capsules = {c.joint: c for c in load_capsules(name)}
         for joint, points in link_points(collision, model).items():

@@ -7,6 +7,12 @@ distance from that axis, and the segment the shortest one along the axis that ke
 vertex within the radius (so the capsule covers the link exactly, with no margin beyond the
 mesh). A vertex ``v`` at axial coordinate ``s`` and radial distance ``rho`` is covered by every
 segment point within ``sqrt(r^2 - rho^2)`` of ``s``.
+
+It also writes ``<robot>-paper.json``, paper 2's three capsules (``PAPER_CAPSULES``) for every
+robot with ``arm_joints`` (shoulder, elbow, wrist): the upper-arm capsule centred on the
+shoulder-elbow segment and fixed to the elbow joint's parent (where that segment is rigid), the
+forearm likewise on elbow-wrist, the tool capsule from the wrist centre along the direction to
+the end-effector frame, fixed to the end-effector's joint. Segments are measured at the home pose.
 """
 
 from __future__ import annotations
@@ -82,6 +88,37 @@ def fit_robot(name: str) -> dict:
     return {"robot": name, "method": "cobotsafety.arm.fit_capsules (collision geometry)", "capsules": capsules}
 
 
+def paper_table(name: str) -> dict:
+    """Paper 2's capsule table for robot ``name`` (first entry: the fitted base capsule)."""
+    import pinocchio as pin
+
+    from cobotsafety.arm.capsules import PAPER_CAPSULES, load_capsules
+    from cobotsafety.arm.robots import load_robot
+
+    model, _, spec = load_robot(name)
+    if len(spec.arm_joints) != 3:
+        raise ValueError(f"robot {name!r} names no (shoulder, elbow, wrist) arm_joints")
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.array(spec.home_q, dtype=float))
+    shoulder, elbow, wrist = (model.getJointId(j) for j in spec.arm_joints)
+    ee = model.frames[model.getFrameId(spec.ee_frame)]
+    p_shoulder, p_elbow, p_wrist = (data.oMi[j].translation for j in (shoulder, elbow, wrist))
+    p_ee = data.oMf[model.getFrameId(spec.ee_frame)].translation
+    axes = [(model.parents[elbow], p_shoulder, p_elbow, True), (model.parents[wrist], p_elbow, p_wrist, True),
+            (ee.parentJoint, p_wrist, p_ee, False)]
+    base = load_capsules(name)[0]
+    capsules = [{"name": f"{base.name} (base, not checked)", "joint": base.joint, "p0": list(base.p0_joint),
+                 "p1": list(base.p1_joint), "radius_m": base.radius_m}]
+    for (label, length, radius), (joint, a, b, centred) in zip(PAPER_CAPSULES, axes):
+        direction = (b - a) / np.linalg.norm(b - a)
+        start = 0.5 * (a + b) - 0.5 * length * direction if centred else a
+        ends = [data.oMi[joint].actInv(p) for p in (start, start + length * direction)]
+        capsules.append({"name": label, "joint": model.names[joint], "p0": [round(float(x), 6) for x in ends[0]],
+                         "p1": [round(float(x), 6) for x in ends[1]], "radius_m": radius})
+    return {"robot": name, "method": "cobotsafety.arm.fit_capsules (paper 2, section 5: 3 capsules)",
+            "capsules": capsules}
+
+
 def main(argv: list[str] | None = None) -> int:
     from cobotsafety.arm.robots import ROBOTS
 
@@ -92,6 +129,9 @@ def main(argv: list[str] | None = None) -> int:
         table = fit_robot(name)
         (out_dir / f"{name}.json").write_text(json.dumps(table, indent=1) + "\n")
         print(f"{name}: {len(table['capsules'])} capsules")
+        if ROBOTS[name].arm_joints:
+            (out_dir / f"{name}-paper.json").write_text(json.dumps(paper_table(name), indent=1) + "\n")
+            print(f"{name}: paper 2's capsules")
     return 0
 
 

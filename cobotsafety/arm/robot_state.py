@@ -17,7 +17,8 @@ class RobotState:
     radius (c,)), and ``point_jacobian(capsule_index, p_world)`` for any point on a capsule.
     """
 
-    def __init__(self, robot: str = DEFAULT_ROBOT, model=None, spec: RobotSpec | None = None):
+    def __init__(self, robot: str = DEFAULT_ROBOT, model=None, spec: RobotSpec | None = None,
+                 capsules: str = "fitted"):
         if model is None:
             model, self.collision_model, spec = load_robot(robot)
         self.model, self.spec = model, spec
@@ -25,17 +26,23 @@ class RobotState:
         self._data = model.createData()
         self._data_q: np.ndarray | None = None
         self.ee_frame_id = model.getFrameId(spec.ee_frame)
-        self.capsules: list[RobotCapsule] = load_capsules(spec.name)
-        self.capsule_joint_ids = [int(model.getJointId(c.joint)) for c in self.capsules]
-        self.capsule_p0_local = np.array([c.p0_joint for c in self.capsules]).reshape(-1, 3)
-        self.capsule_p1_local = np.array([c.p1_joint for c in self.capsules]).reshape(-1, 3)
-        self.capsule_radius = np.array([c.radius_m for c in self.capsules])
         # Joints with finite limits (continuous joints have none).
         self.lower = model.lowerPositionLimit.copy()
         self.upper = model.upperPositionLimit.copy()
         self.limited_v = self._limited_velocity_indices()
-        self.lever_m = self._lever_bound_m()
         self.q = np.array(spec.home_q, dtype=float)
+        self.use_capsules(capsules)
+
+    def use_capsules(self, capsule_model: str) -> None:
+        """Cover the links with the ``capsule_model`` table ("fitted" or "paper", see
+        ``cobotsafety.arm.capsules``) and update the kinematics."""
+        self.capsule_model = capsule_model
+        self.capsules: list[RobotCapsule] = load_capsules(self.name, capsule_model)
+        self.capsule_joint_ids = [int(self.model.getJointId(c.joint)) for c in self.capsules]
+        self.capsule_p0_local = np.array([c.p0_joint for c in self.capsules]).reshape(-1, 3)
+        self.capsule_p1_local = np.array([c.p1_joint for c in self.capsules]).reshape(-1, 3)
+        self.capsule_radius = np.array([c.radius_m for c in self.capsules])
+        self.lever_m = self._lever_bound_m()
         self.update()
 
     def _lever_bound_m(self) -> float:
