@@ -18,14 +18,15 @@ equal on random states of every robot.
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
-from cobotsafety.arm.packed_kernel import METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_DONE, packed_step
-from cobotsafety.arm.packed_kinematics import JOINT_CODES
+from cobotsafety.arm.packed_kernel import METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_DONE, packed_step
+from cobotsafety.arm.packed_kinematics import JOINT_CODES, joint_axis_local
 from cobotsafety.arm.packed_measures import BOX, CAPSULE, HALFSPACE, HUMAN, JOINT, REACH, TABLE
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.step import ArmParams, ArmStepInfo, step, task_axes
@@ -35,6 +36,7 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 
 logger = logging.getLogger(__name__)
 
+_REASONS = {STATUS_BOX_TOUCHED: "box zone touched"}
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 
 
@@ -50,6 +52,7 @@ def params_vector(params: ArmParams) -> np.ndarray:
 class ConstraintPack:
     """The constraints as flat arrays (``packed_measures`` says what each kind holds)."""
 
+    constraints_list: list
     constraints: tuple
     kinds: np.ndarray
     reals: np.ndarray
@@ -87,12 +90,14 @@ class PackedArm:
         model = state.model
         nj = model.njoints
         self.supported = all(model.joints[j].shortname() in JOINT_CODES for j in range(1, nj))
-        self.fallbacks = 0
-        """Steps handed to the reference ``step`` (rare cases, unknown constraints, other methods)."""
+        self.fallbacks: Counter = Counter()
+        """Steps handed to the reference ``step``, by reason (rare geometry, unknown
+        constraints, other methods)."""
         self.steps = 0
         if not self.supported:
             return
         self.jtype = np.array([0] + [JOINT_CODES[model.joints[j].shortname()] for j in range(1, nj)], dtype=np.int64)
+        self.axes = np.array([(0.0, 0.0, 1.0)] + [joint_axis_local(model.joints[j]) for j in range(1, nj)])
         self.parent = np.array([model.parents[j] for j in range(nj)], dtype=np.int64)
         self.idx_q = np.array([model.joints[j].idx_q if j else 0 for j in range(nj)], dtype=np.int64)
         self.idx_v = np.array([model.joints[j].idx_v if j else 0 for j in range(nj)], dtype=np.int64)
@@ -108,10 +113,6 @@ class PackedArm:
         self.robot_int = np.array([model.nv, frame.parentJoint], dtype=np.int64)
         self.ee_R = np.ascontiguousarray(frame.placement.rotation)
         self.ee_t = np.ascontiguousarray(frame.placement.translation)
-        self.cap_joint = np.array(state.capsule_joint_ids, dtype=np.int64)
-        self.cap_p0l = np.ascontiguousarray(state.capsule_p0_local, dtype=float)
-        self.cap_p1l = np.ascontiguousarray(state.capsule_p1_local, dtype=float)
-        self.radius = np.ascontiguousarray(state.capsule_radius, dtype=float)
         self.lower, self.upper = state.lower.copy(), state.upper.copy()
         self.limited = np.ascontiguousarray(state.limited_v, dtype=np.int64)
         self.vlim = np.ascontiguousarray(model.velocityLimit, dtype=float)
@@ -119,6 +120,25 @@ class PackedArm:
         self._state = state
         self._pack: ConstraintPack | None = None
         self._params: tuple | None = None
+        self._pack_capsules()
+
+    def _pack_capsules(self) -> None:
+        """The robot's capsule attachments (again after ``RobotState.use_capsules``)."""
+        state = self._state
+        self._capsules = state.capsules
+        self.cap_joint = np.array(state.capsule_joint_ids, dtype=np.int64)
+        self.cap_p0l = np.ascontiguousarray(state.capsule_p0_local, dtype=float)
+        self.cap_p1l = np.ascontiguousarray(state.capsule_p1_local, dtype=float)
+        self.radius = np.ascontiguousarray(state.capsule_radius, dtype=float)
+        self._pack = None
+
+    def packed(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
+        """``pack(constraints)``, made again only when the list object or the capsules change."""
+        if self._state.capsules is not self._capsules:
+            self._pack_capsules()
+        if self._pack is None or self._pack.constraints_list is not constraints:
+            self._pack = self.pack(constraints)
+        return self._pack
 
     # ---- packing ------------------------------------------------------------------------------
     def pack(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
@@ -167,7 +187,7 @@ class PackedArm:
             reals.append(real)
             ints.append([skip, 0, 0])
             sizes.append(size)
-        return ConstraintPack(tuple(constraints), np.array(kinds, dtype=np.int64), np.array(reals).reshape(-1, 12),
+        return ConstraintPack(constraints, tuple(constraints), np.array(kinds, dtype=np.int64), np.array(reals).reshape(-1, 12),
                               np.array(ints, dtype=np.int64).reshape(-1, 3), np.array(sizes, dtype=np.int64),
                               0, tuple(humans))
 
@@ -221,24 +241,26 @@ class PackedArm:
     # ---- the step -----------------------------------------------------------------------------
     def step(self, state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
              params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
-             last_qdot: np.ndarray | None = None, pack: ConstraintPack | None = None) -> ArmStepInfo:
+             last_qdot: np.ndarray | None = None) -> ArmStepInfo:
         """``arm.step.step`` on the fast path (same arguments, same result; ``state`` in place).
 
-        ``pack``: ``self.pack(constraints)`` made by the caller when its constraints change
-        (made here when not given).
+        The constraints are packed again when ``constraints`` is another list object (keep one
+        list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
         """
         self.steps += 1
-        if pack is None and self.supported:
-            pack = self.pack(constraints)
-        if not self.supported or pack is None or method not in _METHODS or state is not self._state:
-            return self._reference(state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+        pack = self.packed(constraints) if self.supported else None
+        reason = ("joint type" if not self.supported else "constraint type" if pack is None
+                  else "method" if method not in _METHODS else "another state" if state is not self._state else None)
+        if reason:
+            return self._reference(reason, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref,
+                                   last_qdot)
         v = np.asarray(v_desired, dtype=float).reshape(-1)
         if v.shape != (3,):
             raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
         if not dt_s > 0:
             raise ValueError(f"dt_s must be positive, got {dt_s}")
         if not np.all(np.isfinite(v)):
-            return self._reference(state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+            return self._reference("non-finite command", state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
         speed = np.linalg.norm(v)
         if speed > params.max_speed_m_s:
             v = v * params.max_speed_m_s / speed
@@ -252,24 +274,24 @@ class PackedArm:
         max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
-        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, p_ee, R_ee, J6, p0, p1,
+        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, net_scale, p_ee, R_ee, J6, p0, p1,
          origins) = packed_step(
             np.ascontiguousarray(state.q, dtype=float), vk, float(dt_s), _METHODS[method], R_ref, with_orientation,
-            self.robot_int, self.jtype, self.parent, self.idx_q, self.idx_v, self.placement_R, self.placement_t,
+            self.robot_int, self.jtype, self.axes, self.parent, self.idx_q, self.idx_v, self.placement_R, self.placement_t,
             self.support, self.ee_R, self.ee_t, self.cap_joint, self.cap_p0l, self.cap_p1l, self.radius, self.lower,
             self.upper, self.limited, self.vlim, float(state.lever_m), pack.kinds, pack.reals, ints, before_start,
             int(before_start[-1]), max_rows, hp0, hp1, hr, hv0, hv1, self._params[1])
         if status != STATUS_DONE:
-            return self._reference(state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+            return self._reference(_REASONS[status], state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
         state.set_kinematics(q_next, p_ee, R_ee, J6, p0, p1, origins)
         namer = self._namer(pack)
         names = tuple(namer(t) for t in tags[binding])
         command_full = np.zeros(3)
         command_full[:k] = command
-        return ArmStepInfo(v, command_full, qdot, names, bool(stopped), 1.0,
+        return ArmStepInfo(v, command_full, qdot, names, bool(stopped), float(net_scale),
                            HalfSpaces(normals, bounds, _RowNames(namer, tags)))
 
-    def _reference(self, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot) -> ArmStepInfo:
-        self.fallbacks += 1
+    def _reference(self, reason: str, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot) -> ArmStepInfo:
+        self.fallbacks[reason] += 1
         state.update()
         return step(state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)

@@ -2,8 +2,8 @@
 
 Kinematics, the mapping, every measure row, the secondary-task scale, the half-spaces, the
 projection, the integration and the safety net's re-check in one call; ``arm.step`` describes
-the maths and is the spec. ``status``: 0 done; 1 the reference must take this step (a box zone
-touched or penetrated, or the safety net would have to bisect).
+the maths and is the spec. ``status``: 0 done; otherwise the reference must take this step: 1 a box zone
+touched or penetrated.
 """
 
 from __future__ import annotations
@@ -19,21 +19,21 @@ from cobotsafety.arm.packed_projection import slide_kernel
 CROSSING_TOLERANCE_M = 1e-9
 BINDING_TOLERANCE = 1e-9
 METHOD_ANTICIPATIVE, METHOD_STOP = 0, 1
-STATUS_DONE, STATUS_FALLBACK = 0, 1
+STATUS_DONE, STATUS_BOX_TOUCHED = 0, 1
 
 
 @numba.njit(cache=True)
-def kinematics(q, robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
+def kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
                cap_joint, cap_p0l, cap_p1l):  # pragma: no cover - compiled
     """Joint placements, end-effector pose and Jacobian (6, nv), capsule points at ``q``."""
     nj, nv, ee_joint = jtype.shape[0], robot_int[0], robot_int[1]
     oR, op = np.empty((nj, 3, 3)), np.empty((nj, 3))
-    forward_kinematics(q, jtype, parent, idx_q, placement_R, placement_t, oR, op)
+    forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op)
     p_ee = np.empty(3)
     attached_point(oR, op, ee_joint, ee_t, p_ee)
     R_ee = oR[ee_joint] @ ee_R
     J = np.empty((6, nv))
-    frame_jacobian(p_ee, ee_joint, oR, op, jtype, idx_v, support, J)
+    frame_jacobian(p_ee, ee_joint, oR, op, axes, idx_v, support, J)
     c = cap_joint.shape[0]
     p0, p1, origins = np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3))
     capsule_points(oR, op, cap_joint, cap_p0l, cap_p1l, p0, p1, origins)
@@ -42,14 +42,14 @@ def kinematics(q, robot_int, jtype, parent, idx_q, idx_v, placement_R, placement
 
 @numba.njit(cache=True)
 def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
-                robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
+                robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
                 cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim, lever_m: float,
                 kinds, reals, ints, before_start, n_before: int, max_rows: int,
                 hp0, hp1, hr, hv0, hv1, params):  # pragma: no cover - compiled
     """One step. ``params``: ArmParams as floats (see ``packed.params_vector``).
 
     Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), binding (m,),
-    tags (m, 3), p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
+    tags (m, 3), net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
     """
     (max_speed, width_m, width_rad, activation_m, w_threshold, damping_max, orientation_gain,
      centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain) = (
@@ -57,7 +57,7 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
         params[9], params[10], params[11])
     nv = robot_int[0]
     k = vk.shape[0]
-    oR, op, p_ee, R_ee, J6, p0, p1, origins = kinematics(q, robot_int, jtype, parent, idx_q, idx_v, placement_R,
+    oR, op, p_ee, R_ee, J6, p0, p1, origins = kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R,
                                                         placement_t, support, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l)
     # ---- mapping (``step.mapping``) -----------------------------------------------------------
     J = np.ascontiguousarray(J6[:k])
@@ -76,13 +76,13 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
     dist, A, rate = np.empty(max_rows), np.empty((max_rows, nv)), np.empty(max_rows)
     angular, tag = np.empty(max_rows, dtype=np.bool_), np.empty((max_rows, 3), dtype=np.int64)
     before = np.empty(n_before)
-    m, ok = measure_rows(kinds, reals, ints, q, p_ee, J6, oR, op, p0, p1, radius, origins, cap_joint, jtype, idx_v,
+    m, ok = measure_rows(kinds, reals, ints, q, p_ee, J6, oR, op, p0, p1, radius, origins, cap_joint, axes, idx_v,
                          support, lower, upper, limited, hp0, hp1, hr, hv0, hv1, activation_m, dist, A, rate, angular,
                          tag, before, before_start)
     empty_f = np.zeros(0)
     if not ok:
-        return (STATUS_FALLBACK, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f, np.zeros(0, dtype=np.bool_),
-                np.zeros((0, 3), dtype=np.int64), p_ee, R_ee, J6, p0, p1, origins)
+        return (STATUS_BOX_TOUCHED, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f, np.zeros(0, dtype=np.bool_),
+                np.zeros((0, 3), dtype=np.int64), 1.0, p_ee, R_ee, J6, p0, p1, origins)
     dist, A, rate, angular, tag = dist[:m], A[:m], rate[:m], angular[:m], tag[:m]
     buffer = np.where(angular, buffer_rad, buffer_m)
     # ---- secondary-task scale (``step.secondary_scale``) ---------------------------------------
@@ -167,23 +167,51 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
     travel = np.abs(qdot) * dt_s
     reach_linear = lever_m * travel.sum() + CROSSING_TOLERANCE_M
     reach_angular = (travel.max() if travel.shape[0] else 0.0) + CROSSING_TOLERANCE_M
-    q_next = q.copy()
-    integrate(q, qdot * dt_s, jtype, idx_q, idx_v, q_next)
-    oR2, op2, p_ee2, R_ee2, J62, p02, p12, origins2 = kinematics(
-        q_next, robot_int, jtype, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t, cap_joint,
-        cap_p0l, cap_p1l)
+    checked = np.zeros(kinds.shape[0], dtype=np.bool_)
     for con in range(kinds.shape[0]):
         part = before[before_start[con]:before_start[con + 1]]
-        if part.shape[0] == 0:
-            continue
-        reach = reach_angular if kinds[con] == JOINT else reach_linear
-        if part.min() > reach:
-            continue
-        after, ok = constraint_distances(kinds[con], reals[con], ints[con], q_next, p_ee2, p02, p12, radius, lower,
-                                         upper, limited, hp0, hp1, hr, 0.0)
-        if not ok:
-            return (STATUS_FALLBACK, q, qdot, command, stopped, N, bnd, binding, tags, p_ee, R_ee, J6, p0, p1, origins)
-        for i in range(part.shape[0]):
-            if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
-                return (STATUS_FALLBACK, q, qdot, command, stopped, N, bnd, binding, tags, p_ee, R_ee, J6, p0, p1, origins)
-    return (STATUS_DONE, q_next, qdot, command, stopped, N, bnd, binding, tags, p_ee2, R_ee2, J62, p02, p12, origins2)
+        if part.shape[0]:
+            checked[con] = part.min() <= (reach_angular if kinds[con] == JOINT else reach_linear)
+    net_scale = 1.0
+    low, high = 0.0, 1.0
+    for attempt in range(27):
+        # attempt 0: the full step; 1..25: bisection on its scale; 26: the scale found.
+        if attempt == 0:
+            scale = 1.0
+        elif attempt == 26:
+            scale = low
+        else:
+            scale = 0.5 * (low + high)
+        q_next = q.copy()
+        integrate(q, qdot * scale * dt_s, jtype, idx_q, idx_v, q_next)
+        oR2, op2, p_ee2, R_ee2, J62, p02, p12, origins2 = kinematics(
+            q_next, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
+            cap_joint, cap_p0l, cap_p1l)
+        if attempt == 26:
+            net_scale = low
+            break
+        admissible = True
+        for con in range(kinds.shape[0]):
+            if not checked[con]:
+                continue
+            part = before[before_start[con]:before_start[con + 1]]
+            after, ok = constraint_distances(kinds[con], reals[con], ints[con], q_next, p_ee2, p02, p12, radius,
+                                             lower, upper, limited, hp0, hp1, hr, 0.0)
+            if not ok:
+                return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, binding, tags, 1.0, p_ee, R_ee, J6,
+                        p0, p1, origins)
+            for i in range(part.shape[0]):
+                if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
+                    admissible = False
+                    break
+            if not admissible:
+                break
+        if attempt == 0:
+            if admissible:
+                break
+        elif admissible:
+            low = scale
+        else:
+            high = scale
+    return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, binding, tags, net_scale,
+            p_ee2, R_ee2, J62, p02, p12, origins2)

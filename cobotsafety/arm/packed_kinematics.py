@@ -14,22 +14,24 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-JOINT_RX, JOINT_RY, JOINT_RZ, JOINT_RUBZ = 0, 1, 2, 3
-JOINT_CODES = {"JointModelRX": JOINT_RX, "JointModelRY": JOINT_RY, "JointModelRZ": JOINT_RZ,
-               "JointModelRUBZ": JOINT_RUBZ}
+JOINT_REVOLUTE, JOINT_RUBZ = 0, 3
+JOINT_CODES = {"JointModelRX": JOINT_REVOLUTE, "JointModelRY": JOINT_REVOLUTE, "JointModelRZ": JOINT_REVOLUTE,
+               "JointModelRevoluteUnaligned": JOINT_REVOLUTE, "JointModelRUBZ": JOINT_RUBZ}
+JOINT_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0),
+              "JointModelRUBZ": (0.0, 0.0, 1.0)}
+
+
+def joint_axis_local(joint) -> tuple[float, float, float]:
+    """The unit axis of a pinocchio revolute joint model in its own frame."""
+    name = joint.shortname()
+    return JOINT_AXES[name] if name in JOINT_AXES else tuple(float(a) for a in joint.extract().axis)
 
 _EPS = float(np.finfo(float).eps)
 _LOG3_PRECISION = _EPS ** (1.0 / 3.0)  # pinocchio's TaylorSeriesExpansion<double>::precision<2>()
 
 
 @numba.njit(cache=True)
-def joint_axis(jtype: int) -> int:  # pragma: no cover - compiled
-    """Local axis index (0 x, 1 y, 2 z) of a joint type code."""
-    return 2 if jtype == JOINT_RUBZ else jtype
-
-
-@numba.njit(cache=True)
-def forward_kinematics(q, jtype, parent, idx_q, placement_R, placement_t, oR, op):  # pragma: no cover - compiled
+def forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op):  # pragma: no cover - compiled
     """World placements of every joint: rotations ``oR`` (nj, 3, 3), origins ``op`` (nj, 3), in place."""
     nj = jtype.shape[0]
     for r in range(3):
@@ -43,15 +45,14 @@ def forward_kinematics(q, jtype, parent, idx_q, placement_R, placement_t, oR, op
             c, s = q[iq], q[iq + 1]
         else:
             s, c = np.sin(q[iq]), np.cos(q[iq])
-        # Local rotation of the joint about its axis.
-        Rj = np.zeros((3, 3))
-        a = joint_axis(t)
-        b, d = (a + 1) % 3, (a + 2) % 3
-        Rj[a, a] = 1.0
-        Rj[b, b] = c
-        Rj[d, d] = c
-        Rj[b, d] = -s
-        Rj[d, b] = s
+        # Local rotation of the joint about its unit axis (Rodrigues; exact for x, y, z).
+        Rj = np.empty((3, 3))
+        x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
+        c1 = 1.0 - c
+        Rj[0, 0], Rj[1, 1], Rj[2, 2] = c1 * x * x + c, c1 * y * y + c, c1 * z * z + c
+        Rj[0, 1], Rj[1, 0] = c1 * x * y - s * z, c1 * x * y + s * z
+        Rj[0, 2], Rj[2, 0] = c1 * x * z + s * y, c1 * x * z - s * y
+        Rj[1, 2], Rj[2, 1] = c1 * y * z - s * x, c1 * y * z + s * x
         pj = parent[j]
         # liMi = placement * M_joint: rotation placement_R @ Rj, translation placement_t.
         liR = np.zeros((3, 3))
@@ -74,28 +75,33 @@ def attached_point(oR, op, joint: int, p_local, out):  # pragma: no cover - comp
 
 
 @numba.njit(cache=True)
-def point_jacobian_row(u, p, joint: int, oR, op, jtype, idx_v, support, out):  # pragma: no cover - compiled
+def _world_axis(oR, axes, i: int):  # pragma: no cover - compiled
+    x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
+    return (oR[i, 0, 0] * x + oR[i, 0, 1] * y + oR[i, 0, 2] * z, oR[i, 1, 0] * x + oR[i, 1, 1] * y + oR[i, 1, 2] * z,
+            oR[i, 2, 0] * x + oR[i, 2, 1] * y + oR[i, 2, 2] * z)
+
+
+@numba.njit(cache=True)
+def point_jacobian_row(u, p, joint: int, oR, op, axes, idx_v, support, out):  # pragma: no cover - compiled
     """``out`` (nv,) = ``u @ J_p``: the rate of ``u . p`` for the point ``p`` fixed to ``joint``."""
     for i in range(out.shape[0]):
         out[i] = 0.0
-    for i in range(1, jtype.shape[0]):
+    for i in range(1, axes.shape[0]):
         if not support[joint, i]:
             continue
-        a = joint_axis(jtype[i])
-        ax, ay, az = oR[i, 0, a], oR[i, 1, a], oR[i, 2, a]
+        ax, ay, az = _world_axis(oR, axes, i)
         rx, ry, rz = p[0] - op[i, 0], p[1] - op[i, 1], p[2] - op[i, 2]
         out[idx_v[i]] = u[0] * (ay * rz - az * ry) + u[1] * (az * rx - ax * rz) + u[2] * (ax * ry - ay * rx)
 
 
 @numba.njit(cache=True)
-def frame_jacobian(p, joint: int, oR, op, jtype, idx_v, support, J):  # pragma: no cover - compiled
+def frame_jacobian(p, joint: int, oR, op, axes, idx_v, support, J):  # pragma: no cover - compiled
     """``J`` (6, nv): LOCAL_WORLD_ALIGNED Jacobian of a frame at ``p`` fixed to ``joint``."""
     J[:, :] = 0.0
-    for i in range(1, jtype.shape[0]):
+    for i in range(1, axes.shape[0]):
         if not support[joint, i]:
             continue
-        a = joint_axis(jtype[i])
-        ax, ay, az = oR[i, 0, a], oR[i, 1, a], oR[i, 2, a]
+        ax, ay, az = _world_axis(oR, axes, i)
         rx, ry, rz = p[0] - op[i, 0], p[1] - op[i, 1], p[2] - op[i, 2]
         v = idx_v[i]
         J[0, v] = ay * rz - az * ry

@@ -225,7 +225,7 @@ def constraint_distances(kind: int, real, ints, q, p_ee, p0, p1, radius, lower, 
 
 @numba.njit(cache=True)
 def measure_rows(kinds, reals, ints, q, p_ee, J_ee, oR, op, p0, p1, radius, origins, cap_joint,
-                 jtype, idx_v, support, lower, upper, limited, hp0, hp1, hr, hv0, hv1,
+                 axes, idx_v, support, lower, upper, limited, hp0, hp1, hr, hv0, hv1,
                  activation_m: float, dist, A, rate, angular, tag, before, before_start):  # pragma: no cover - compiled
     """Every active measure row (``distance``, ``A``, ``rate``, ``angular``, ``tag``) in the
     reference's order, and each constraint's distances into ``before`` (at ``before_start``).
@@ -274,7 +274,7 @@ def measure_rows(kinds, reals, ints, q, p_ee, J_ee, oR, op, p0, p1, radius, orig
                 before[start + i] = min(p0[c, 2], p1[c, 2]) - radius[c] - real[0]
                 if value < activation_m:
                     dist[m] = value
-                    point_jacobian_row(u, low, cap_joint[c], oR, op, jtype, idx_v, support, A[m])
+                    point_jacobian_row(u, low, cap_joint[c], oR, op, axes, idx_v, support, A[m])
                     rate[m], angular[m] = 0.0, False
                     tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
                     m += 1
@@ -307,7 +307,7 @@ def measure_rows(kinds, reals, ints, q, p_ee, J_ee, oR, op, p0, p1, radius, orig
                         for k in range(3):
                             closing += u[k] * (v0[k] + t * (v1[k] - v0[k]))
                         dist[m] = d[row] - real[0]
-                        point_jacobian_row(u, pr[row], cap_joint[skip + i], oR, op, jtype, idx_v, support, A[m])
+                        point_jacobian_row(u, pr[row], cap_joint[skip + i], oR, op, axes, idx_v, support, A[m])
                         rate[m], angular[m] = -closing, False
                         tag[m, 0], tag[m, 1], tag[m, 2] = con, skip + i, h
                         m += 1
@@ -319,7 +319,7 @@ def measure_rows(kinds, reals, ints, q, p_ee, J_ee, oR, op, p0, p1, radius, orig
                 before[start + i] = d[i]
                 if exact[i] and d[i] < activation_m:
                     dist[m] = d[i]
-                    point_jacobian_row(dirs[i], pts[i], cap_joint[skip + i], oR, op, jtype, idx_v, support, A[m])
+                    point_jacobian_row(dirs[i], pts[i], cap_joint[skip + i], oR, op, axes, idx_v, support, A[m])
                     rate[m], angular[m] = 0.0, False
                     tag[m, 0], tag[m, 1], tag[m, 2] = con, skip + i, 0
                     m += 1
