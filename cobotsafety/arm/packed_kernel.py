@@ -18,6 +18,7 @@ from cobotsafety.arm.packed_projection import slide_kernel
 
 CROSSING_TOLERANCE_M = 1e-9
 BINDING_TOLERANCE = 1e-9
+SECONDARY_TOLERANCE = 1e-12
 METHOD_ANTICIPATIVE, METHOD_STOP = 0, 1
 STATUS_DONE, STATUS_BOX_TOUCHED = 0, 1
 
@@ -91,7 +92,10 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
         scale = np.inf
         any_toward = False
         for i in range(m):
-            if ac[i] < 0.0:
+            magnitude = 0.0
+            for j in range(nv):
+                magnitude += abs(A[i, j] * c[j])
+            if ac[i] < -SECONDARY_TOLERANCE * magnitude:
                 any_toward = True
                 d = dist[i] - buffer[i]
                 allowed = -d / dt_s if d > 0.0 else 0.0

@@ -1,0 +1,160 @@
+"""The packed fast path (``cobotsafety.arm.packed``) equals the reference step (``arm.step.step``).
+
+The oracles: pinocchio for the kinematics (placements, Jacobian, ``integrate``, ``log3``), and
+the reference step itself (constraint classes, ``slide``) on random states of every robot,
+with the demo zones, the table, the reach and joint limits and a moving human beside the arm.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cobotsafety.arm.packed import PackedArm
+from cobotsafety.arm.packed_kernel import kinematics
+from cobotsafety.arm.packed_kinematics import integrate, log3
+from cobotsafety.arm.robot_state import RobotState
+from cobotsafety.arm.robots import ROBOTS
+from cobotsafety.arm.step import ArmParams, step
+from cobotsafety.arm.teleop import ArmTeleop, default_constraints, default_zones, reach_limits
+from cobotsafety.control.human_constraint import HumanCapsulesConstraint
+
+STATES_PER_ROBOT = 10_000
+Q_TOLERANCE = 1e-12
+"""On next ``q`` (rad): both paths do the same arithmetic in nearly the same order; what remains
+is rounding (~1e-16) through the projection's active-set solve."""
+
+
+def random_q(model, rng) -> np.ndarray:
+    lower = np.maximum(model.lowerPositionLimit, -np.pi)
+    upper = np.minimum(model.upperPositionLimit, np.pi)
+    q = pin.randomConfiguration(model, lower, upper)
+    return q
+
+
+@pytest.mark.parametrize("robot", list(ROBOTS))
+def test_kinematics_equal_pinocchio(robot):
+    state = RobotState(robot)
+    packed = PackedArm(state)
+    model, data = state.model, state.model.createData()
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        q = random_q(model, rng)
+        oR, op, p_ee, R_ee, J6, p0, p1, _ = kinematics(
+            q, packed.robot_int, packed.jtype, packed.axes, packed.parent, packed.idx_q, packed.idx_v,
+            packed.placement_R, packed.placement_t, packed.support, packed.ee_R, packed.ee_t, packed.cap_joint,
+            packed.cap_p0l, packed.cap_p1l)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for j in range(model.njoints):
+            np.testing.assert_allclose(oR[j], data.oMi[j].rotation, atol=1e-14)
+            np.testing.assert_allclose(op[j], data.oMi[j].translation, atol=1e-14)
+        np.testing.assert_allclose(p_ee, data.oMf[state.ee_frame_id].translation, atol=1e-14)
+        np.testing.assert_allclose(R_ee, data.oMf[state.ee_frame_id].rotation, atol=1e-14)
+        J = pin.getFrameJacobian(model, data, state.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        np.testing.assert_allclose(J6, J, atol=1e-14)
+        state.q = q
+        state.update()
+        np.testing.assert_allclose(p0, state.capsule_p0, atol=1e-14)
+        np.testing.assert_allclose(p1, state.capsule_p1, atol=1e-14)
+        v = rng.normal(size=model.nv) * rng.choice([1e-3, 0.1, 2.0])
+        out = np.empty(model.nq)
+        integrate(q, v, packed.jtype, packed.idx_q, packed.idx_v, out)
+        np.testing.assert_allclose(out, pin.integrate(model, q, v), atol=1e-15)
+
+
+def test_log3_equals_pinocchio():
+    rng = np.random.default_rng(2)
+    for scale in (1e-12, 1e-7, 1e-4, 0.1, 1.0, 3.0, np.pi - 1e-3, np.pi - 1e-7):
+        for _ in range(50):
+            axis = rng.normal(size=3)
+            R = pin.exp3(axis / np.linalg.norm(axis) * scale)
+            # Near pi the angle-axis is ill-conditioned (error / (pi - theta)): both sides agree
+            # to what the rotation matrix's rounding allows.
+            np.testing.assert_allclose(log3(R), pin.log3(R), atol=1e-15 / max(np.pi - scale, 1e-3) * 100)
+
+
+def _human_beside(state: RobotState, rng, count: int = 5):
+    """``count`` capsules within ~0.3 m of a random robot capsule, moving at up to ~1 m/s."""
+    c = rng.integers(len(state.capsules))
+    centre = 0.5 * (state.capsule_p0[c] + state.capsule_p1[c]) + rng.normal(size=3) * 0.25
+    p0 = centre + rng.normal(size=(count, 3)) * 0.15
+    p1 = p0 + rng.normal(size=(count, 3)) * 0.15
+    return (p0, p1, rng.uniform(0.03, 0.12, count), rng.normal(size=(count, 3)) * 0.5,
+            rng.normal(size=(count, 3)) * 0.5)
+
+
+@pytest.mark.parametrize("robot", list(ROBOTS))
+def test_packed_step_equals_reference(robot):
+    rng = np.random.default_rng(sum(map(ord, robot)))
+    reference, fast = RobotState(robot), RobotState(robot)
+    packed = PackedArm(fast)
+    params = ArmParams()
+    human = HumanCapsulesConstraint()
+    zones = default_zones(reference)
+    constraints = default_constraints(reference, zones, reach_limits(reference) if robot != "planar" else None)
+    constraints = constraints + [human]
+    R_ref = reference.R_world_ee.copy()
+    outcomes = Counter()
+    worst_q = 0.0
+    for i in range(STATES_PER_ROBOT):
+        q = random_q(reference.model, rng)
+        reference.q, fast.q = q.copy(), q.copy()
+        reference.update()
+        fast.update()
+        human.set_human(*_human_beside(reference, rng))
+        v = rng.normal(size=3) * rng.uniform(0.0, 1.0)
+        method = "stop" if i % 10 == 0 else "anticipative"
+        dt_s = 0.002 if i % 7 else 0.01
+        expected = step(reference, v, dt_s, constraints, params, method, R_ref)
+        got = packed.step(fast, v, dt_s, constraints, params, method, R_ref)
+        context = f"{robot} state {i}: q={q.tolist()}"
+        assert got.binding == expected.binding, context
+        assert got.stopped == expected.stopped, context
+        assert tuple(got.halfspaces.names) == expected.halfspaces.names, context
+        np.testing.assert_allclose(got.halfspaces.normals, expected.halfspaces.normals, rtol=0, atol=1e-12,
+                                   err_msg=context)
+        np.testing.assert_allclose(got.halfspaces.bounds, expected.halfspaces.bounds, rtol=0, atol=1e-12,
+                                   err_msg=context)
+        np.testing.assert_allclose(fast.q, reference.q, rtol=0, atol=Q_TOLERANCE, err_msg=context)
+        assert got.net_scale == pytest.approx(expected.net_scale, abs=1e-6), context
+        worst_q = max(worst_q, float(np.max(np.abs(fast.q - reference.q))))
+        outcomes["binding" if expected.binding else "free"] += 1
+        outcomes["net" if expected.net_scale < 1 else "full"] += 1
+        outcomes["stopped"] += expected.stopped
+    # The states exercise what the kernel does, and it did almost all of them itself.
+    assert outcomes["binding"] > STATES_PER_ROBOT // 4, outcomes
+    assert outcomes["free"] > STATES_PER_ROBOT // 20, outcomes
+    assert sum(packed.fallbacks.values()) < STATES_PER_ROBOT // 20, packed.fallbacks
+    print(robot, dict(outcomes), dict(packed.fallbacks), f"worst |dq| {worst_q:.1e}")
+
+
+def test_pinocchio_data_is_refreshed_when_read():
+    teleop = ArmTeleop("panda")
+    teleop.step(np.array([0.2, 0.0, 0.0]), 0.002)
+    data = teleop.state.data
+    frame = teleop.state.ee_frame_id
+    np.testing.assert_allclose(data.oMf[frame].translation, teleop.state.p_world_ee, atol=1e-14)
+    expected = pin.getFrameJacobian(teleop.state.model, data, frame, pin.LOCAL_WORLD_ALIGNED)
+    np.testing.assert_allclose(teleop.state.J_ee, expected[:3], atol=1e-14)
+
+
+def test_unknown_constraint_falls_back_to_the_reference():
+    from cobotsafety.arm.constraints import ArmConstraint, Measures
+
+    class Nothing(ArmConstraint):
+        name = "nothing"
+
+        def measures(self, state, activation_m=np.inf):
+            return Measures.empty(state.nv)
+
+    fast, reference = ArmTeleop("ur5", extra_constraints=[Nothing()]), ArmTeleop("ur5", extra_constraints=[Nothing()],
+                                                                                   fast=False)
+    for _ in range(5):
+        a = fast.step(np.array([0.1, 0.2, 0.0]), 0.002)
+        b = reference.step(np.array([0.1, 0.2, 0.0]), 0.002)
+        np.testing.assert_array_equal(a.p_base_ee_m, b.p_base_ee_m)
+    assert fast.packed.fallbacks == {"constraint type": 5}
