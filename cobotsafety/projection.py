@@ -86,6 +86,71 @@ def slide(v_desired, normals, bounds=None) -> np.ndarray:
     return v + _least_distance(N, h)
 
 
+#: Weight of the command in the violation stage of ``relax`` [-]: among the commands that
+#: violate the soft rows least, the smallest; an extra 1 m/s of command weighs as much as
+#: 0.01 m/s of violation, so the violation found is within ~1e-4 m/s of the exact minimum.
+RELAXATION_COMMAND_WEIGHT = 1e-2
+
+
+def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.ndarray]:
+    """``slide`` when it can; when the half-spaces contradict each other, violate the ``soft``
+    rows as little as possible (least squares) while every other row stays hard.
+
+    Two stages (a lexicographic relaxation):
+
+    1. ``s* = argmin ||s||^2 + w^2 ||v||^2`` over ``(v, s)`` subject to
+       ``normals[hard] @ v >= bounds[hard]``, ``normals[soft] @ v + s >= bounds[soft]`` and
+       ``normals[soft] @ v >= floor[soft]`` (``w = RELAXATION_COMMAND_WEIGHT``; ``s*`` is the
+       least-squares violation);
+    2. the command closest to ``v_desired`` with the soft bounds lowered by ``s*``:
+       ``slide(v_desired, normals, bounds - s*)``.
+
+    Args:
+        v_desired: Shape (n,).
+        normals: Shape (m, n).
+        bounds: Shape (m,).
+        soft: Shape (m,) bool, the rows that may give way.
+        floor: Shape (m,) or None (no floor): the soft rows give way down to this bound at
+            most (a hard row ``normals @ v >= floor``; ``0``: "approach nothing"). The hard rows
+            and the floors must admit a common command (e.g. all <= 0: ``v = 0``).
+
+    Returns:
+        ``(v (n,), violation (m,))``: the command and how much each row's bound was lowered
+        (zero for the hard rows, and for all rows when ``slide`` alone succeeded).
+
+    Raises:
+        ValueError: wrong shapes or non-finite inputs (as ``slide``).
+        InfeasibleConstraintsError: the hard rows alone contradict each other.
+    """
+    v, N, b = _as_inputs(v_desired, normals, bounds)
+    soft = np.asarray(soft, dtype=bool).reshape(-1)
+    if soft.shape != b.shape:
+        raise ValueError(f"soft must have shape {b.shape} to match bounds, got {soft.shape}")
+    violation = np.zeros_like(b)
+    try:
+        return slide(v, N, b), violation
+    except InfeasibleConstraintsError:
+        if not np.any(soft):
+            raise
+    floors = np.full_like(b, -np.inf) if floor is None else np.broadcast_to(np.asarray(floor, dtype=float), b.shape)
+    if np.any(np.isnan(floors)):
+        raise ValueError("floor contains NaN")
+    n, k = N.shape[1], int(soft.sum())
+    floored = np.flatnonzero(soft & np.isfinite(floors) & (floors < b))
+    # Stage 1 as a least-distance problem in x = (w v, s): the hard rows and the floors on w v,
+    # the soft rows on (w v, s).
+    G = np.zeros((N.shape[0] + floored.size, n + k))
+    G[:, :n] = np.vstack([N, N[floored]]) / RELAXATION_COMMAND_WEIGHT
+    G[np.flatnonzero(soft), n + np.arange(k)] = 1.0
+    x = slide(np.zeros(n + k), G, np.concatenate([b, floors[floored]]))
+    v_least = x[:n] / RELAXATION_COMMAND_WEIGHT
+    violation[soft] = np.maximum(b[soft] - N[soft] @ v_least, 0.0)
+    try:
+        return slide(v, N, b - violation), violation
+    except InfeasibleConstraintsError:  # rounding at the relaxed bounds: v_least satisfies them
+        return v_least, violation
+
+
 def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Return argmin ||x|| subject to G x >= h.
 

@@ -41,6 +41,11 @@ class StepReport:
     """Minimum human-robot capsule distance, when a human is modelled [m]."""
     extras: dict = field(default_factory=dict)
     """Free-form diagnostics (e.g. per-constraint distances) for plots."""
+    reason: str = ""
+    """Why the command was stopped or its retreats relaxed ("" when neither)."""
+    contradictions: int = 0
+    """Steps of this episode (since ``reset``) whose limitations contradicted each other (the
+    arm then violated the required retreats as little as it could); logged once per episode."""
 
 
 @runtime_checkable

@@ -139,8 +139,10 @@ def test_three_active_constraints_slide_along_an_edge_like_a_qp():
     zones = [HalfSpaceZone("floor", (0, 0, p[2] - 0.1), (0, 0, -1)), HalfSpaceZone("wall", (p[0] + 0.1, 0, 0), (1, 0, 0))]
     # Only the hand and the last link meet these planes.
     constraints = [ZoneConstraint(z, skip_capsules=5) for z in zones]
-    robot = ArmTeleop("panda", zones=[], extra_constraints=constraints)
-    state, params = robot.state, ArmParams()
+    # Without the acceleration bound: one step shows the projection alone.
+    params = ArmParams(max_accel_m_s2=np.inf)
+    robot = ArmTeleop("panda", zones=[], extra_constraints=constraints, params=params)
+    state = robot.state
     for _ in range(400):  # into the corner
         robot.step(np.array([0.3, 0.0, -0.3]), 0.002)
     M, c = mapping(state, params, robot.R_world_ee_ref)
@@ -183,7 +185,7 @@ def test_recovery_from_inside_a_zone_allows_only_moves_that_reduce_the_violation
 
 
 def test_singular_pose_gives_finite_smooth_commands():
-    robot = ArmTeleop("ur5", zones=[])
+    robot = ArmTeleop("ur5", zones=[], params=ArmParams(max_accel_m_s2=np.inf))  # the mapping alone, step by step
     robot.reach = ReachLimits(tuple(robot.state.capsule_p0[0]), 0.0, 10.0)  # the singularity alone
     state = robot.state
     state.q = np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0])  # arm stretched up: singular

@@ -107,10 +107,12 @@ def test_packed_step_equals_reference(robot):
         fast.update()
         human.set_human(*_human_beside(reference, rng))
         v = rng.normal(size=3) * rng.uniform(0.0, 1.0)
+        # The previous command: often near this one (the acceleration bound binds or not).
+        v_previous = None if i % 3 == 0 else v + rng.normal(size=3) * rng.choice([0.001, 0.01, 0.1])
         method = "stop" if i % 10 == 0 else "anticipative"
         dt_s = 0.002 if i % 7 else 0.01
-        expected = step(reference, v, dt_s, constraints, params, method, R_ref)
-        got = packed.step(fast, v, dt_s, constraints, params, method, R_ref)
+        expected = step(reference, v, dt_s, constraints, params, method, R_ref, None, v_previous)
+        got = packed.step(fast, v, dt_s, constraints, params, method, R_ref, None, v_previous)
         context = f"{robot} state {i}: q={q.tolist()}"
         assert got.binding == expected.binding, context
         assert got.stopped == expected.stopped, context

@@ -110,13 +110,15 @@ def test_ssm_numbers_match_a_hand_computation():
 
 
 def test_ssm_slows_the_approach_but_not_the_retreat():
-    # About 0.73 m between the hand and the human: S_p allows ~0.1 m/s toward them.
-    arm = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05))
+    # About 0.73 m between the hand and the human: S_p allows ~0.1 m/s toward them. One step,
+    # so without the acceleration bound (the SSM layer alone).
+    params = ArmParams(max_accel_m_s2=np.inf)
+    arm = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05), params=params)
     p = arm.state.p_world_ee + np.array([0.0, 0.87, 0.0])
     arm.set_human(0.0, [p], [p], [0.05])
     toward = arm.step(np.array([0.0, 0.3, 0.0]), 0.002, "anticipative", ssm=True)
     assert 0.0 < toward.report.v_executed_m_s[1] < 0.2  # limited toward the human
-    arm2 = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05))
+    arm2 = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05), params=params)
     arm2.set_human(0.0, [p], [p], [0.05])
     away = arm2.step(np.array([0.0, -0.3, 0.0]), 0.002, "anticipative", ssm=True)
     np.testing.assert_allclose(away.report.v_commanded_m_s, [0.0, -0.3, 0.0], atol=1e-9)  # not slowed

@@ -17,7 +17,7 @@ ASSETS = files("cobotsafety.assets") / "recordings"
 
 @pytest.fixture(scope="module")
 def recording():
-    return load_recording(ASSETS / "approach.jsonl.gz")
+    return load_recording(ASSETS / "reach-over.jsonl.gz")
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,7 @@ def replay(recording):
 
 @pytest.fixture(scope="module")
 def truth():
-    return dict(np.load(ASSETS / "approach_truth.npz"))
+    return dict(np.load(ASSETS / "reach-over_truth.npz"))
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
-from cobotsafety.arm.packed_kernel import METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_DONE, packed_step
+from cobotsafety.arm.packed_kernel import (METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION,
+                                           STATUS_DONE, packed_step)
 from cobotsafety.arm.packed_kinematics import JOINT_CODES, joint_axis_local
 from cobotsafety.arm.packed_measures import BOX, CAPSULE, HALFSPACE, HUMAN, JOINT, REACH, TABLE
 from cobotsafety.arm.robot_state import RobotState
@@ -36,7 +37,7 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 
 logger = logging.getLogger(__name__)
 
-_REASONS = {STATUS_BOX_TOUCHED: "box zone touched"}
+_REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict"}
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 
 
@@ -45,7 +46,7 @@ def params_vector(params: ArmParams) -> np.ndarray:
     return np.array([params.max_speed_m_s, params.damping_width_m, params.damping_width_rad, params.activation_m,
                      params.w_threshold, params.damping_max, params.orientation_gain_per_s,
                      params.centering_gain_per_s, params.velocity_limit_scale, params.buffer_m, params.buffer_rad,
-                     params.recovery_gain_per_s], dtype=float)
+                     params.recovery_gain_per_s, params.max_accel_m_s2], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -241,31 +242,35 @@ class PackedArm:
     # ---- the step -----------------------------------------------------------------------------
     def step(self, state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
              params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
-             last_qdot: np.ndarray | None = None) -> ArmStepInfo:
+             last_qdot: np.ndarray | None = None, v_previous: np.ndarray | None = None) -> ArmStepInfo:
         """``arm.step.step`` on the fast path (same arguments, same result; ``state`` in place).
 
         The constraints are packed again when ``constraints`` is another list object (keep one
         list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
         """
+        args = (state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot, v_previous)
         self.steps += 1
         pack = self.packed(constraints) if self.supported else None
         reason = ("joint type" if not self.supported else "constraint type" if pack is None
                   else "method" if method not in _METHODS else "another state" if state is not self._state else None)
         if reason:
-            return self._reference(reason, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref,
-                                   last_qdot)
+            return self._reference(reason, *args)
         v = np.asarray(v_desired, dtype=float).reshape(-1)
         if v.shape != (3,):
             raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
         if not dt_s > 0:
             raise ValueError(f"dt_s must be positive, got {dt_s}")
         if not np.all(np.isfinite(v)):
-            return self._reference("non-finite command", state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+            return self._reference("non-finite command", *args)
         speed = np.linalg.norm(v)
         if speed > params.max_speed_m_s:
             v = v * params.max_speed_m_s / speed
         k = self.k
         vk = np.ascontiguousarray(v[:k])
+        previous = np.zeros(k)
+        if v_previous is not None:
+            previous = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
+            previous = np.ascontiguousarray(previous) if np.all(np.isfinite(previous)) else np.zeros(k)
         if self._params is None or self._params[0] is not params:
             self._params = (params, params_vector(params))
         ints, sizes, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
@@ -274,24 +279,33 @@ class PackedArm:
         max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
-        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, net_scale, p_ee, R_ee, J6, p0, p1,
+        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, violation, net_scale, p_ee, R_ee, J6, p0, p1,
          origins) = packed_step(
-            np.ascontiguousarray(state.q, dtype=float), vk, float(dt_s), _METHODS[method], R_ref, with_orientation,
-            self.robot_int, self.jtype, self.axes, self.parent, self.idx_q, self.idx_v, self.placement_R, self.placement_t,
-            self.support, self.ee_R, self.ee_t, self.cap_joint, self.cap_p0l, self.cap_p1l, self.radius, self.lower,
-            self.upper, self.limited, self.vlim, float(state.lever_m), pack.kinds, pack.reals, ints, before_start,
-            int(before_start[-1]), max_rows, hp0, hp1, hr, hv0, hv1, self._params[1])
+            np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
+            _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
+            self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
+            self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
+            float(state.lever_m), pack.kinds, pack.reals, ints, before_start, int(before_start[-1]), max_rows, hp0, hp1,
+            hr, hv0, hv1, self._params[1])
         if status != STATUS_DONE:
-            return self._reference(_REASONS[status], state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+            return self._reference(_REASONS[status], *args)
         state.set_kinematics(q_next, p_ee, R_ee, J6, p0, p1, origins)
         namer = self._namer(pack)
         names = tuple(namer(t) for t in tags[binding])
         command_full = np.zeros(3)
         command_full[:k] = command
+        relaxed = bool(np.any(violation > 0.0))
+        reason = ""
+        if relaxed:
+            worst = int(np.argmax(violation))
+            reason = (f"retreats contradict: relaxed {int(np.sum(violation > 0))} row(s), "
+                      f"at most {violation[worst]:.3g} m/s ({namer(tags[worst])})")
+        if stopped and method == "anticipative" and not reason:
+            reason = "blocked by " + ", ".join(names) if names else "blocked"
         return ArmStepInfo(v, command_full, qdot, names, bool(stopped), float(net_scale),
-                           HalfSpaces(normals, bounds, _RowNames(namer, tags)))
+                           HalfSpaces(normals, bounds, _RowNames(namer, tags)), relaxed, reason)
 
-    def _reference(self, reason: str, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot) -> ArmStepInfo:
+    def _reference(self, reason: str, *args) -> ArmStepInfo:
         self.fallbacks[reason] += 1
-        state.update()
-        return step(state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot)
+        args[0].update()
+        return step(*args)

@@ -14,13 +14,22 @@ import numpy as np
 from cobotsafety.arm.mapping_kernel import mapping_kernel
 from cobotsafety.arm.packed_kinematics import attached_point, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.packed_measures import JOINT, capsule_points, constraint_distances, measure_rows
-from cobotsafety.arm.packed_projection import slide_kernel
+from cobotsafety.arm.packed_projection import relax_kernel
+from cobotsafety.projection import RELAXATION_COMMAND_WEIGHT
+from cobotsafety.arm.step import SECONDARY_RELATIVE_TOLERANCE
 
 CROSSING_TOLERANCE_M = 1e-9
 BINDING_TOLERANCE = 1e-9
-SECONDARY_TOLERANCE = 1e-12
 METHOD_ANTICIPATIVE, METHOD_STOP = 0, 1
-STATUS_DONE, STATUS_BOX_TOUCHED = 0, 1
+STATUS_DONE, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def approach_limit(d: float, angular: bool, dt_s: float, max_accel: float) -> float:  # pragma: no cover - compiled
+    """``step.approach_limit`` for one gap ``d`` [m or rad]."""
+    d = max(d, 0.0)
+    brake = np.inf if angular or not np.isfinite(max_accel) else np.sqrt(2.0 * max_accel * d)
+    return -min(d / dt_s, brake)
 
 
 @numba.njit(cache=True)
@@ -42,7 +51,7 @@ def kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, pla
 
 
 @numba.njit(cache=True)
-def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
+def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int, R_ref, with_orientation: bool,
                 robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
                 cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim, lever_m: float,
                 kinds, reals, ints, before_start, n_before: int, max_rows: int,
@@ -50,12 +59,12 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
     """One step. ``params``: ArmParams as floats (see ``packed.params_vector``).
 
     Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), binding (m,),
-    tags (m, 3), net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
+    tags (m, 3), violation (m,), net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
     """
     (max_speed, width_m, width_rad, activation_m, w_threshold, damping_max, orientation_gain,
-     centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain) = (
+     centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain, max_accel) = (
         params[0], params[1], params[2], params[3], params[4], params[5], params[6], params[7], params[8],
-        params[9], params[10], params[11])
+        params[9], params[10], params[11], params[12])
     nv = robot_int[0]
     k = vk.shape[0]
     oR, op, p_ee, R_ee, J6, p0, p1, origins = kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R,
@@ -83,31 +92,34 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
     empty_f = np.zeros(0)
     if not ok:
         return (STATUS_BOX_TOUCHED, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f, np.zeros(0, dtype=np.bool_),
-                np.zeros((0, 3), dtype=np.int64), 1.0, p_ee, R_ee, J6, p0, p1, origins)
+                np.zeros((0, 3), dtype=np.int64), empty_f, 1.0, p_ee, R_ee, J6, p0, p1, origins)
     dist, A, rate, angular, tag = dist[:m], A[:m], rate[:m], angular[:m], tag[:m]
     buffer = np.where(angular, buffer_rad, buffer_m)
     # ---- secondary-task scale (``step.secondary_scale``) ---------------------------------------
     if m > 0:
         ac = A @ c
+        c_norm = np.sqrt(np.sum(c * c))
         scale = np.inf
         any_toward = False
         for i in range(m):
-            magnitude = 0.0
+            a_norm = 0.0
             for j in range(nv):
-                magnitude += abs(A[i, j] * c[j])
-            if ac[i] < -SECONDARY_TOLERANCE * magnitude:
+                a_norm += A[i, j] * A[i, j]
+            if ac[i] < -SECONDARY_RELATIVE_TOLERANCE * np.sqrt(a_norm) * c_norm:
                 any_toward = True
                 d = dist[i] - buffer[i]
-                allowed = -d / dt_s if d > 0.0 else 0.0
-                allowed = min(allowed - rate[i], 0.0)
+                allowed = approach_limit(d, angular[i], dt_s, max_accel) if d > 0.0 else 0.0
+                allowed = min(allowed - min(rate[i], 0.0), 0.0)
                 scale = min(scale, allowed / ac[i])
         if any_toward:
             c = c * min(max(scale, 0.0), 1.0)
     # ---- half-spaces (``step.build_halfspaces``) ------------------------------------------------
     hard = method != METHOD_ANTICIPATIVE
+    braking = np.inf if hard else max_accel
     normals = A @ M
     secondary = A @ c
-    offset = secondary + rate
+    human = np.minimum(rate, 0.0)
+    offset = secondary + human
     rate_desired = normals @ vk + offset
     n_rows = m + 2 * nv + 2 * k
     all_normals = np.empty((n_rows, k))
@@ -115,10 +127,10 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
     for i in range(m):
         width = (width_rad if angular[i] else width_m) * (not hard)
         d = dist[i] - buffer[i]
-        bound = -recovery_gain * d if d <= 0.0 else -d / dt_s
+        bound = -recovery_gain * d if d <= 0.0 else approach_limit(d, angular[i], dt_s, braking)
         if width > 0 and d > 0 and d < width and rate_desired[i] < 0:
             bound = max(bound, d / width * rate_desired[i])
-        all_bounds[i] = min(bound - rate[i], max_speed) - secondary[i]
+        all_bounds[i] = min(bound - human[i], max_speed) - secondary[i]
         all_normals[i] = normals[i]
     vmax = vlim * velocity_limit_scale
     for i in range(nv):
@@ -146,21 +158,40 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
         tags[m + i, 0] = -1
         tags[m + i, 1] = i
     tags = tags[keep]
-    # ---- projection (``filter.project`` and the relaxation in ``step.step``) -------------------
+    # ---- projection (``step.filter_command``) --------------------------------------------------
     stopped = False
+    violation = np.zeros(N.shape[0])
     if method == METHOD_ANTICIPATIVE:
-        command, status = slide_kernel(vk, N, bnd)
-        infeasible = status != 0
-        stopped = infeasible or (np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12))
-        if stopped and np.any(bnd > 0):
-            bnd = np.minimum(bnd, 0.0)
-            command, status = slide_kernel(vk, N, bnd)
-            infeasible = status != 0
-            stopped = infeasible or (np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12))
-        if infeasible:
-            binding = np.ones(N.shape[0], dtype=np.bool_)
-        else:
-            binding = N @ command - bnd <= BINDING_TOLERANCE
+        n_hs = N.shape[0]
+        n_acc = 2 * k if with_previous and np.isfinite(max_accel) else 0
+        N_all = np.zeros((n_hs + n_acc, k))
+        b_all = np.empty(n_hs + n_acc)
+        N_all[:n_hs] = N
+        b_all[:n_hs] = bnd
+        soft = np.zeros(n_hs + n_acc, dtype=np.bool_)
+        floors = np.full(n_hs + n_acc, -np.inf)
+        if n_acc:
+            change = max_accel * dt_s
+            for a in range(k):
+                N_all[n_hs + a, a] = 1.0
+                N_all[n_hs + k + a, a] = -1.0
+                b_all[n_hs + a] = v_previous[a] - change
+                b_all[n_hs + k + a] = -v_previous[a] - change
+                soft[n_hs + a] = True
+                soft[n_hs + k + a] = True
+        command, violation_all, status = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
+        if status != 0:  # the limitations contradict each other: their retreats give way too
+            for i in range(n_hs):
+                if bnd[i] > 0.0:
+                    soft[i] = True
+                    floors[i] = 0.0
+            command, violation_all, status = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
+            if status != 0:  # the approach-nothing rows alone contradict (rounding): the reference says why
+                return (STATUS_CONTRADICTION, q, np.zeros(nv), command, False, N, bnd, np.zeros(n_hs, dtype=np.bool_),
+                        tags, violation, 1.0, p_ee, R_ee, J6, p0, p1, origins)
+            violation = violation_all[:n_hs].copy()
+        binding = N @ command - (bnd - violation) <= BINDING_TOLERANCE
+        stopped = np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12)
         qdot = M @ command if stopped else M @ command + c
     else:  # stop
         binding = N @ vk < bnd - 1e-12
@@ -202,7 +233,7 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
             after, ok = constraint_distances(kinds[con], reals[con], ints[con], q_next, p_ee2, p02, p12, radius,
                                              lower, upper, limited, hp0, hp1, hr, 0.0)
             if not ok:
-                return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, binding, tags, 1.0, p_ee, R_ee, J6,
+                return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, binding, tags, violation, 1.0, p_ee, R_ee, J6,
                         p0, p1, origins)
             for i in range(part.shape[0]):
                 if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
@@ -217,5 +248,6 @@ def packed_step(q, vk, dt_s: float, method: int, R_ref, with_orientation: bool,
             low = scale
         else:
             high = scale
-    return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, binding, tags, net_scale,
+    return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, binding, tags, violation,
+            net_scale,
             p_ee2, R_ee2, J62, p02, p12, origins2)

@@ -114,3 +114,57 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
     if status != 0:
         return np.zeros(n), 1
     return v + x, 0
+
+
+@numba.njit(cache=True)
+def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - compiled
+    """``(projection.relax(v, N, b, soft, floors), violation (m,), status)``: the same two stages
+    (least-squares violation of the soft rows, then ``slide`` with their bounds lowered);
+    ``floors`` (m,) with -inf for none. status 1: the hard rows alone contradict each other."""
+    m, n = N.shape
+    violation = np.zeros(m)
+    x, status = slide_kernel(v, N, b)
+    if status == 0:
+        return x, violation, 0
+    if not np.any(soft):
+        return x, violation, 1
+    soft_index = np.full(m, -1, dtype=np.int64)
+    ks = 0
+    for i in range(m):
+        if soft[i]:
+            soft_index[i] = ks
+            ks += 1
+    floored = np.empty(m, dtype=np.int64)
+    nf = 0
+    for i in range(m):
+        if soft[i] and np.isfinite(floors[i]) and floors[i] < b[i]:
+            floored[nf] = i
+            nf += 1
+    G = np.zeros((m + nf, n + ks))
+    h = np.empty(m + nf)
+    for i in range(m):
+        for j in range(n):
+            G[i, j] = N[i, j] / weight
+        if soft[i]:
+            G[i, n + soft_index[i]] = 1.0
+        h[i] = b[i]
+    for f in range(nf):
+        for j in range(n):
+            G[m + f, j] = N[floored[f], j] / weight
+        h[m + f] = floors[floored[f]]
+    x, status = slide_kernel(np.zeros(n + ks), G, h)
+    if status != 0:
+        return x[:n], violation, 1
+    v_least = x[:n] / weight
+    lowered = b.copy()
+    for i in range(m):
+        if soft[i]:
+            s = 0.0
+            for j in range(n):
+                s += N[i, j] * v_least[j]
+            violation[i] = max(b[i] - s, 0.0)
+            lowered[i] = b[i] - violation[i]
+    x, status = slide_kernel(v, N, lowered)
+    if status != 0:
+        return v_least, violation, 0
+    return x, violation, 0

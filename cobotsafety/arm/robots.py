@@ -65,8 +65,8 @@ ROBOTS: dict[str, RobotSpec] = {
                     locked_joints=("jointGripper",), arm_joints=("joint2", "joint3", "joint5")),
     "xarm7": RobotSpec("xarm7", "xarm7", "link_eef", (0.0, -0.2, 0.0, 0.9, 0.0, 1.1, 0.0),
                        arm_joints=("joint2", "joint4", "joint6")),
-    # Paper 2's pose family: shoulder forward, elbow bent, tool pointing down in front of the base.
-    "iiwa": RobotSpec("iiwa", f"{RTBDATA_PREFIX}{IIWA_URDF}", "tool0", (0.0, 0.55, 0.0, -1.45, 0.0, 1.15, 0.0),
+    # Paper 2's pose family: elbow up, tool pointing down at (0.35, 0, 0.70) m in front of the base.
+    "iiwa": RobotSpec("iiwa", f"{RTBDATA_PREFIX}{IIWA_URDF}", "tool0", (0.0, -0.1122, 0.0, -1.5612, 0.0, 1.6926, 0.0),
                       arm_joints=("joint_a2", "joint_a4", "joint_a6")),
     "planar": RobotSpec("planar", None, "ee", (1.7686, 2.4554)),
 }

@@ -18,6 +18,18 @@ Each limitation's measure ``(d, a)`` (``d_dot = a @ qdot``) becomes the half-spa
 projected (``cobotsafety.slide``), integrated with ``pin.integrate``, and the new state is
 checked: a step that crossed a limitation (first-order bounds on curved limits) is scaled down
 by bisection; zero motion is always admissible.
+
+Smoothness (``max_accel_m_s2 = a``):
+
+* a limitation in metres may be approached no faster than the arm can still brake before it,
+  ``d_dot >= -min(d / dt, sqrt(2 a d))``, so a limitation never asks for a jump;
+* the command changes by at most ``a dt`` per axis and step from the previous one
+  (``v_previous``), a soft row: when it conflicts with a limitation, the limitation wins and
+  the change is the least that satisfies it (``cobotsafety.projection.relax``);
+* when the required retreats (rows with a bound > 0: a human closing in, a limit already
+  inside its buffer) contradict each other, they are relaxed by least squares, each down to
+  "approach nothing" at most, while every other row stays hard, so the arm still moves away
+  as far as it can (``ArmStepInfo.relaxed``) instead of stopping.
 """
 
 from __future__ import annotations
@@ -32,11 +44,17 @@ from cobotsafety.arm.constraints import ArmConstraint, Measures
 from cobotsafety.arm.mapping_kernel import mapping_kernel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.constraint import HalfSpaces
-from cobotsafety.filter import project
+from cobotsafety.errors import InfeasibleConstraintsError
+from cobotsafety.filter import BINDING_TOLERANCE
+from cobotsafety.projection import relax
 
 logger = logging.getLogger(__name__)
 
 CROSSING_TOLERANCE_M = 1e-9
+#: ``secondary_scale`` counts a row as approached by the null-space term when ``a . c`` is
+#: below ``-SECONDARY_RELATIVE_TOLERANCE * |a| |c|`` (rounding of an orthogonal ``a . c`` is not
+#: an approach).
+SECONDARY_RELATIVE_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -62,6 +80,10 @@ class ArmParams:
     """Inside the buffer, the command drifts back out at this rate (times the intrusion)."""
     reactive_stiffness_per_s: float = 30.0
     reactive_zone_m: float = 0.05
+    max_accel_m_s2: float = 3.0
+    """The anticipative command changes by at most this [m/s^2] per axis (unless a limitation
+    needs more), and limitations in metres are approached no faster than this braking allows;
+    ``inf`` turns both off."""
 
 
 @dataclass
@@ -73,6 +95,10 @@ class ArmStepInfo:
     stopped: bool
     net_scale: float
     halfspaces: HalfSpaces = field(repr=False, default=None)
+    relaxed: bool = False
+    """The required retreats contradicted each other and were relaxed by least squares."""
+    reason: str = ""
+    """Why the command was stopped or relaxed ("" when neither)."""
 
 
 def task_axes(state: RobotState) -> np.ndarray:
@@ -110,20 +136,34 @@ def measures_and_distances(state: RobotState, constraints: list[ArmConstraint],
     return Measures.stack([m for m, _ in pairs], state.nv), [d for _, d in pairs]
 
 
+def approach_limit(d: np.ndarray, angular: np.ndarray, dt_s: float, max_accel_m_s2: float) -> np.ndarray:
+    """The fastest allowed approach rate (<= 0) at gaps ``d`` (m,) >= 0 [m or rad]:
+    ``-min(d / dt, sqrt(2 a d))`` for metres (close at most the gap in one step, and no faster
+    than braking at ``a`` still stops before it), ``-d / dt`` for angles."""
+    d = np.maximum(d, 0.0)
+    brake = np.where(angular, np.inf, np.sqrt(2.0 * max_accel_m_s2 * d) if np.isfinite(max_accel_m_s2) else np.inf)
+    return -np.minimum(d / dt_s, brake)
+
+
 def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np.ndarray,
                      v_desired: np.ndarray, dt_s: float, params: ArmParams, hard: bool = False) -> HalfSpaces:
     """Half-spaces on the command from the measures and the joint velocity limits."""
     normals = measures.A @ M
     secondary = measures.A @ c
-    human = measures.rate if measures.rate is not None else 0.0  # limits that move by themselves
+    # Limits that move by themselves (a human): only their approach counts. A receding human
+    # earns the arm no approach, which the safety net (human held still over the step) would
+    # refuse, and a noisy rate estimate cannot pull the arm in.
+    human = np.minimum(measures.rate, 0.0) if measures.rate is not None else 0.0
     offset = secondary + human
     rate_desired = normals @ v_desired + offset
     width = np.where(measures.angular, params.damping_width_rad, params.damping_width_m) * (not hard)
     buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
     d = measures.distance - buffer
-    # Outside the buffer: approach at most the remaining gap in one step; inside it: drift out
-    # gently (never deeper), which also holds the recovery rule for a violated limit.
-    bound = np.where(d <= 0.0, -params.recovery_gain_per_s * d, -d / dt_s)
+    # Outside the buffer: approach at most the remaining gap in one step, and (anticipative)
+    # no faster than the arm can brake before the limit; inside it: drift out gently (never
+    # deeper), which also holds the recovery rule for a violated limit.
+    braking = np.inf if hard else params.max_accel_m_s2
+    bound = np.where(d <= 0.0, -params.recovery_gain_per_s * d, approach_limit(d, measures.angular, dt_s, braking))
     damped = (width > 0) & (d > 0) & (d < width) & (rate_desired < 0)
     bound = np.where(damped, np.maximum(bound, d / np.where(width > 0, width, 1.0) * rate_desired), bound)
     # Never demand of the arm a separation rate above the maximum speed [m/s] (a human closing
@@ -177,16 +217,46 @@ def secondary_scale(measures: Measures, c: np.ndarray, dt_s: float, params: ArmP
     if not measures.distance.size:
         return 1.0
     ac = measures.A @ c
-    toward = ac < 0.0
+    toward = ac < -SECONDARY_RELATIVE_TOLERANCE * np.linalg.norm(measures.A, axis=1) * np.linalg.norm(c)
     if not np.any(toward):
         return 1.0
     buffer = np.where(measures.angular, params.buffer_rad, params.buffer_m)
     d = measures.distance - buffer
-    allowed = np.where(d > 0.0, -d / dt_s, 0.0)
+    allowed = np.where(d > 0.0, approach_limit(d, measures.angular, dt_s, params.max_accel_m_s2), 0.0)
     if measures.rate is not None:
-        allowed = allowed - measures.rate
+        allowed = allowed - np.minimum(measures.rate, 0.0)  # as in build_halfspaces
     allowed = np.minimum(allowed, 0.0)[toward]
     return float(np.clip(np.min(allowed / ac[toward]), 0.0, 1.0))
+
+
+def filter_command(vk: np.ndarray, hs: HalfSpaces, v_previous: np.ndarray | None, dt_s: float,
+                   params: ArmParams) -> tuple[np.ndarray, np.ndarray]:
+    """The anticipative command (k,) and each row's relaxation (m,) [m/s] (zeros unless the
+    retreats contradicted each other). ``v_previous`` (k,) or None: no acceleration bound.
+
+    Priorities: every row at least "approach nothing" (hard; ``v = 0`` satisfies it); then the
+    limitations' full bounds (hard while they agree); then the acceleration bound (soft). When
+    the retreats (bounds > 0) contradict each other they become soft too, down to "approach
+    nothing", and their violations and the acceleration's are minimised together.
+    """
+    normals, bounds = hs.normals, hs.bounds
+    m = bounds.shape[0]
+    accel_soft = np.zeros(0, dtype=bool)
+    if v_previous is not None and np.isfinite(params.max_accel_m_s2):
+        k = vk.shape[0]
+        change = params.max_accel_m_s2 * dt_s
+        normals = np.vstack([normals, np.eye(k), -np.eye(k)])
+        bounds = np.concatenate([bounds, v_previous - change, -v_previous - change])
+        accel_soft = np.ones(2 * k, dtype=bool)
+    try:
+        command, _ = relax(vk, normals, bounds, np.concatenate([np.zeros(m, dtype=bool), accel_soft]))
+        return command, np.zeros(m)
+    except InfeasibleConstraintsError:
+        pass  # the limitations contradict each other: their retreats give way too
+    retreat = hs.bounds > 0.0
+    floor = np.concatenate([np.zeros(m), np.full(accel_soft.size, -np.inf)])
+    command, violation = relax(vk, normals, bounds, np.concatenate([retreat, accel_soft]), floor)
+    return command, violation[:m]
 
 
 def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
@@ -233,8 +303,13 @@ def integrate_with_safety_net(state: RobotState, qdot: np.ndarray, dt_s: float, 
 
 def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
          params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
-         last_qdot: np.ndarray | None = None) -> ArmStepInfo:
-    """Advance ``state`` (in place) by one period; ``state.update()`` must be current."""
+         last_qdot: np.ndarray | None = None, v_previous: np.ndarray | None = None) -> ArmStepInfo:
+    """Advance ``state`` (in place) by one period; ``state.update()`` must be current.
+
+    ``v_previous``: shape (3,), the previous step's ``v_commanded`` [m/s], from which the
+    anticipative command may change by ``params.max_accel_m_s2 * dt_s`` per axis (None: no
+    acceleration bound). ``last_qdot`` is unused.
+    """
     axes = task_axes(state)
     v = np.asarray(v_desired, dtype=float).reshape(-1)
     if v.shape != (3,):
@@ -252,16 +327,27 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
     measures, before = measures_and_distances(state, constraints, params.activation_m)
     c = c * secondary_scale(measures, c, dt_s, params)
     binding: tuple[str, ...] = ()
-    stopped = False
+    stopped, relaxed, reason = False, False, ""
     if method == "anticipative":
         hs = build_halfspaces(state, measures, M, c, vk, dt_s, params)
-        result = project(vk, hs)
-        if result.stopped and np.any(hs.bounds > 0):
-            # The required retreats contradict each other: at least approach nothing (always
-            # feasible with v = 0) instead of stopping dead.
-            hs = HalfSpaces(hs.normals, np.minimum(hs.bounds, 0.0), hs.names)
-            result = project(vk, hs)
-        command, binding, stopped = result.v_filtered, result.binding, result.stopped
+        previous = None
+        if v_previous is not None:
+            previous = np.asarray(v_previous, dtype=float).reshape(-1)[axes]
+            previous = previous if np.all(np.isfinite(previous)) else np.zeros_like(vk)
+        try:
+            command, violation = filter_command(vk, hs, previous, dt_s, params)
+        except InfeasibleConstraintsError as error:  # the approach-nothing rows alone: rounding
+            command, violation, reason = np.zeros_like(vk), np.zeros(hs.bounds.shape[0]), f"limits contradict: {error}"
+        slack = hs.normals @ command - (hs.bounds - violation)
+        binding = tuple(name for name, gap in zip(hs.names, slack) if gap <= BINDING_TOLERANCE)
+        relaxed = bool(np.any(violation > 0.0))
+        if relaxed:
+            worst = int(np.argmax(violation))
+            reason = (f"retreats contradict: relaxed {int(np.sum(violation > 0))} row(s), "
+                      f"at most {violation[worst]:.3g} m/s ({hs.names[worst]})")
+        stopped = bool(np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12))
+        if stopped and not reason:
+            reason = "blocked by " + ", ".join(binding) if binding else "blocked"
         qdot = M @ command + (0.0 if stopped else c)
     elif method == "stop":
         hs = build_halfspaces(state, measures, M, c, vk, dt_s, params, hard=True)
@@ -291,4 +377,4 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
         state.update()
     command_full = np.zeros(3)
     command_full[axes] = command * net_scale
-    return ArmStepInfo(v, command_full, qdot * net_scale, binding, stopped, net_scale, hs)
+    return ArmStepInfo(v, command_full, qdot * net_scale, binding, stopped, net_scale, hs, relaxed, reason)

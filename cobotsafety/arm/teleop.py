@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
@@ -11,6 +13,8 @@ from cobotsafety.arm.robots import DEFAULT_ROBOT
 from cobotsafety.arm.step import ArmParams, step
 from cobotsafety.arm.zones import BoxZone, HalfSpaceZone, SphereZone
 from cobotsafety.teleop import METHODS, StepReport
+
+logger = logging.getLogger(__name__)
 
 
 def default_zones(state: RobotState) -> list:
@@ -61,6 +65,10 @@ class ArmTeleop:
         self.extra_constraints = list(extra_constraints or [])
         self.R_world_ee_ref = self.state.R_world_ee.copy()
         self.last_qdot = np.zeros(self.state.nv)
+        self.last_command = np.zeros(3)
+        """The previous step's command [m/s]: the acceleration bound starts from it."""
+        self.contradictions = 0
+        """Steps of this episode (since ``reset``) whose required retreats contradicted each other."""
         # Sized once at the home pose: a reach limit recomputed from the current pose would move
         # with the arm.
         self.reach = reach_limits(self.state) if self.state.name != "planar" else None
@@ -80,6 +88,8 @@ class ArmTeleop:
         self.state.q = np.array(self.state.spec.home_q, dtype=float)
         self.state.update()
         self.last_qdot = np.zeros(self.state.nv)
+        self.last_command = np.zeros(3)
+        self.contradictions = 0
 
     @property
     def p_base_ee_m(self) -> np.ndarray:
@@ -93,8 +103,14 @@ class ArmTeleop:
             raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
         before = self.p_base_ee_m
         stepper = self.packed.step if self.packed is not None else step
-        info = stepper(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot)
+        info = stepper(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot,
+                       self.last_command)
         self.last_qdot = info.qdot
+        self.last_command = info.v_commanded
+        if info.relaxed:
+            self.contradictions += 1
+            if self.contradictions == 1:  # once per episode; the count is in every StepReport
+                logger.warning("%s (further contradictions this episode are counted, not logged)", info.reason)
         return StepReport(
             v_desired_m_s=info.v_desired,
             v_commanded_m_s=info.v_commanded,
@@ -102,5 +118,7 @@ class ArmTeleop:
             p_base_ee_m=self.p_base_ee_m,
             binding=info.binding,
             stopped=info.stopped,
+            reason=info.reason,
+            contradictions=self.contradictions,
             extras={"net_scale": info.net_scale},
         )

@@ -7,7 +7,7 @@ Deterministic (``--seed``, default 7): the same arguments give the same bytes.
 
 Scene (robot base frame: origin at the robot base, z = 0 the table top, floor at z = -0.75 m):
 the laser (SICK TiM-like: 271 beams over 270 deg, 1 deg steps, 8 m, 50 Hz) sits at the table
-corner ``SCANNER_XY_M`` at leg height, looking away from the table. The human (``BODY``)
+corner (``scenario.scanner_xy_m``) at leg height, looking away from the table. The human (``BODY``)
 stands ~2.5 m away, walks to the table edge (torso ~0.6 m from the robot base), reaches over
 the table with the right arm, steps back and walks away. Five IMUs (~300 Hz, jittered stamps)
 read their orientation in their own reference frame (an unknown heading each) with noise and
@@ -30,12 +30,11 @@ from scipy.spatial.transform import Rotation
 from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions
 from cobotsafety.human.capsules import five_capsules
 from cobotsafety.human.recording import Recording, write_recording
+from cobotsafety.human.scenarios import SCENARIOS, Scenario
 from cobotsafety.sensors.imu import IMU_NAMES
 from cobotsafety.sensors.scanner_pose import ScannerPose
 
 FLOOR_Z_M = -0.75
-SCANNER_XY_M = (0.40, -0.40)
-SCANNER_YAW_RAD = -np.pi / 4  # looks away from the table; the 90 deg blind sector faces it
 SCANNER_HEIGHT_ABOVE_FLOOR_M = 0.30
 LASER_BEAMS = 271
 LASER_FOV_RAD = np.deg2rad(270.0)
@@ -55,33 +54,6 @@ ROOM_M = ((-1.5, 4.0), (-2.5, 2.5))  # walls: x range, y range
 STOOL_LEGS_XY_M = ((1.05, -1.30), (1.35, -1.30), (1.05, -1.60), (1.35, -1.60))  # static clutter
 STOOL_LEG_RADIUS_M = 0.02
 BODY = BodyDimensions()
-START_XY_M, TABLE_XY_M, BACK_XY_M, END_XY_M = (2.6, 0.0), (0.62, -0.15), (1.0, 0.0), (2.8, 1.0)
-DURATION_S = 32.0
-#: Key times [s]: stand, walk in, stand, reach, hold, retract, step back, stand, walk away, stand.
-SCRIPT_S = (2.0, 5.5, 7.0, 9.0, 13.0, 15.0, 17.5, 20.0, 25.5)
-
-
-def smoothstep(u):
-    u = np.clip(u, 0.0, 1.0)
-    return u * u * (3 - 2 * u)
-
-
-def blend(t, t0, t1, a, b):
-    w = smoothstep((t - t0) / (t1 - t0))[..., None]
-    return (1 - w) * np.asarray(a, float) + w * np.asarray(b, float)
-
-
-def torso_path(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Torso xy (n, 2) [m], heading (n,) [rad] (direction faced) and walking speed (n,) [m/s]."""
-    s = SCRIPT_S
-    xy = np.where((t < s[1])[:, None], blend(t, s[0], s[1], START_XY_M, TABLE_XY_M),
-         np.where((t < s[6])[:, None], TABLE_XY_M,
-         np.where((t < s[7])[:, None], blend(t, s[6], s[7], TABLE_XY_M, BACK_XY_M),
-         np.where((t < s[8] - 3.5)[:, None], BACK_XY_M, blend(t, s[8] - 3.5, s[8], BACK_XY_M, END_XY_M)))))
-    away = np.arctan2(END_XY_M[1] - BACK_XY_M[1], END_XY_M[0] - BACK_XY_M[0])
-    heading = np.pi + (away - np.pi) * smoothstep((t - (s[8] - 4.0)) / 1.0)  # face the robot, then turn
-    speed = np.linalg.norm(np.gradient(xy, t, axis=0), axis=1)
-    return xy, heading, speed
 
 
 def limb_frame(direction_b: np.ndarray, forward_b: np.ndarray) -> Rotation:
@@ -94,34 +66,32 @@ def limb_frame(direction_b: np.ndarray, forward_b: np.ndarray) -> Rotation:
     return Rotation.from_matrix(np.stack([x, np.cross(z, x), z], axis=-1))
 
 
-def body_orientations(t: np.ndarray) -> list[Rotation]:
+def body_orientations(scenario: Scenario, t: np.ndarray) -> list[Rotation]:
     """True base-frame orientations of the 5 IMUs (``IMU_NAMES`` order), each n rotations."""
-    xy, heading, speed = torso_path(t)
+    xy, heading, speed = scenario.torso_path(t)
     fwd = np.stack([np.cos(heading), np.sin(heading), 0 * t], axis=1)
     left = np.stack([-np.sin(heading), np.cos(heading), 0 * t], axis=1)
     up = np.tile([0.0, 0.0, 1.0], (len(t), 1))
     distance = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
     swing = np.deg2rad(20.0) * np.clip(speed / 0.8, 0, 1) * np.sin(2 * np.pi * distance / STRIDE_M)
     chest = limb_frame(-up, fwd)
-    s = SCRIPT_S
-    reach = smoothstep((t - s[2]) / (s[3] - s[2])) * (1 - smoothstep((t - s[4]) / (s[5] - s[4])))
-    wobble = np.deg2rad(5.0) * np.sin(2 * np.pi * 0.7 * t)[:, None]
+    reaches = scenario.reaches(t, fwd, left, up)
     out = [chest]
     for side, sign in (("left", 1.0), ("right", -1.0)):
         a = sign * swing[:, None]  # arms swing opposite to each other
         upper = -np.cos(a) * up + np.sin(a) * fwd + 0.08 * sign * left
         fore = -np.cos(a + 0.3) * up + np.sin(a + 0.3) * fwd + 0.05 * sign * left
-        if side == "right":  # reach forward and a little down over the table
-            target = np.cos(np.deg2rad(-15) + wobble) * fwd + np.sin(np.deg2rad(-15) + wobble) * up - 0.1 * left
-            upper = (1 - reach[:, None]) * upper + reach[:, None] * target
-            fore = (1 - reach[:, None]) * fore + reach[:, None] * (target + 0.1 * up)
+        if side in reaches:
+            weight, upper_target, fore_target = reaches[side]
+            upper = (1 - weight[:, None]) * upper + weight[:, None] * upper_target
+            fore = (1 - weight[:, None]) * fore + weight[:, None] * fore_target
         out += [limb_frame(upper, fwd), limb_frame(fore, fwd)]
     return out
 
 
-def legs_xy(t: np.ndarray) -> np.ndarray:
+def legs_xy(scenario: Scenario, t: np.ndarray) -> np.ndarray:
     """Leg centres (n, 2, 2) [m] in the base frame: hips apart, feet alternating while walking."""
-    xy, heading, speed = torso_path(t)
+    xy, heading, speed = scenario.torso_path(t)
     distance = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
     direction = np.gradient(xy, axis=0)
     norm = np.linalg.norm(direction, axis=1, keepdims=True)
@@ -144,10 +114,10 @@ def ray_circles(origin, directions, centres, radius) -> np.ndarray:
     return hit.min(axis=1)
 
 
-def simulate_scan(t: float, rng: np.random.Generator) -> np.ndarray:
+def simulate_scan(scenario: Scenario, t: float, rng: np.random.Generator) -> np.ndarray:
     """Ranges (271,) [m] at time t: legs, stool, walls; noise and dropouts (0 = no return)."""
-    origin = np.array(SCANNER_XY_M)
-    angles = SCANNER_YAW_RAD - LASER_FOV_RAD / 2 + np.arange(LASER_BEAMS) * LASER_FOV_RAD / (LASER_BEAMS - 1)
+    origin = np.array(scenario.scanner_xy_m)
+    angles = scenario.scanner_yaw_rad - LASER_FOV_RAD / 2 + np.arange(LASER_BEAMS) * LASER_FOV_RAD / (LASER_BEAMS - 1)
     d = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     (x0, x1), (y0, y1) = ROOM_M
     with np.errstate(divide="ignore"):
@@ -155,22 +125,25 @@ def simulate_scan(t: float, rng: np.random.Generator) -> np.ndarray:
         ty = np.where(d[:, 1] > 0, (y1 - origin[1]) / d[:, 1], (y0 - origin[1]) / d[:, 1])
     ranges = np.minimum(np.abs(tx), np.abs(ty))
     ranges = np.minimum(ranges, ray_circles(origin, d, np.array(STOOL_LEGS_XY_M), STOOL_LEG_RADIUS_M))
-    ranges = np.minimum(ranges, ray_circles(origin, d, legs_xy(np.array([t - 0.01, t]))[1], LEG_RADIUS_M))
+    ranges = np.minimum(ranges, ray_circles(origin, d, legs_xy(scenario, np.array([t - 0.01, t]))[1], LEG_RADIUS_M))
     ranges = ranges + rng.normal(0.0, LASER_NOISE_M, LASER_BEAMS)
     ranges[(ranges > LASER_RANGE_M[1]) | (rng.random(LASER_BEAMS) < LASER_BEAM_DROPOUT)] = 0.0
     return ranges
 
 
-def generate(seed: int = 7) -> tuple[Recording, dict]:
+def generate(scenario: Scenario | str = "reach-over", seed: int = 7) -> tuple[Recording, dict]:
+    """The recording and its ground truth (see the module docstring) for ``scenario``."""
+    scenario = SCENARIOS[scenario] if isinstance(scenario, str) else scenario
     rng = np.random.default_rng(seed)
+    duration_s = scenario.duration_s
     # Laser: 50 Hz, +-0.5 ms jitter, some scans lost.
-    laser_t = np.arange(0.0, DURATION_S, 1 / LASER_RATE_HZ) + rng.uniform(-5e-4, 5e-4, int(DURATION_S * LASER_RATE_HZ))
+    laser_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ) + rng.uniform(-5e-4, 5e-4, int(duration_s * LASER_RATE_HZ))
     laser_t = np.round(laser_t[(rng.random(laser_t.size) >= LASER_SCAN_LOSS) & (laser_t > 0)], 6)
-    ranges = np.array([simulate_scan(t, rng) for t in laser_t])
+    ranges = np.array([simulate_scan(scenario, t, rng) for t in laser_t])
     # IMUs: each its own clock phase, reference heading and drift.
     imu_t, imu_q, calibration = {}, {}, {}
     for name in IMU_NAMES:
-        t = np.arange(rng.uniform(0, 1 / IMU_RATE_HZ), DURATION_S, 1 / IMU_RATE_HZ)
+        t = np.arange(rng.uniform(0, 1 / IMU_RATE_HZ), duration_s, 1 / IMU_RATE_HZ)
         t = np.round(t + rng.uniform(-2e-4, 2e-4, t.size), 6)
         if name == "forearm_left":
             t = t[(t < IMU_GAP_S[0]) | (t > IMU_GAP_S[1])]
@@ -179,27 +152,27 @@ def generate(seed: int = 7) -> tuple[Recording, dict]:
         q_b_init = Rotation.from_euler("z", rng.choice([0.0, 90.0, 180.0]), degrees=True)  # jig on the table
         noise0 = Rotation.from_rotvec(rng.normal(0, IMU_NOISE_RAD, 3))
         calibration[name] = (q_b_init.as_quat(), (r_ref_b * q_b_init * noise0).as_quat())
-        truth = body_orientations(t)[IMU_NAMES.index(name)]
+        truth = body_orientations(scenario, t)[IMU_NAMES.index(name)]
         drift = Rotation.from_rotvec(np.outer(drift_rate * t, [0.0, 0.0, 1.0]))
         noise = Rotation.from_rotvec(rng.normal(0, IMU_NOISE_RAD, (t.size, 3)))
         imu_t[name], imu_q[name] = t, (drift * r_ref_b * truth * noise).as_quat()
     recording = Recording(
         body=BODY,
-        scanner=ScannerPose(SCANNER_XY_M[0], SCANNER_XY_M[1], SCANNER_YAW_RAD),
+        scanner=ScannerPose(scenario.scanner_xy_m[0], scenario.scanner_xy_m[1], scenario.scanner_yaw_rad),
         scanner_height_m=FLOOR_Z_M + SCANNER_HEIGHT_ABOVE_FLOOR_M,
         laser={"angle_min": -LASER_FOV_RAD / 2, "angle_increment": LASER_FOV_RAD / (LASER_BEAMS - 1),
                "range_min": LASER_RANGE_M[0], "range_max": LASER_RANGE_M[1], "beams": LASER_BEAMS},
         laser_t_s=laser_t, laser_ranges_m=ranges, imu_t_s=imu_t, imu_q_ref=imu_q, calibration=calibration,
-        description=f"scripted human approaches the table, reaches with the right arm, leaves (generate_recording, seed {seed})",
+        description=f"{scenario.description} (generate_recording, seed {seed})",
     )
-    truth_t = np.arange(0.0, DURATION_S, 1 / LASER_RATE_HZ)
-    rotations = body_orientations(truth_t)
-    xy, _, _ = torso_path(truth_t)
+    truth_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ)
+    rotations = body_orientations(scenario, truth_t)
+    xy, _, _ = scenario.torso_path(truth_t)
     caps = [five_capsules(xy[i], Rotation.concatenate([r[i] for r in rotations]), BODY) for i in range(truth_t.size)]
     truth = {
         "t_s": truth_t, "names": np.array(CAPSULE_NAMES_5),
         "p0_b_m": np.array([c.p0_b_m for c in caps]), "p1_b_m": np.array([c.p1_b_m for c in caps]),
-        "radius_m": caps[0].radius_m, "torso_xy_b_m": xy, "legs_xy_b_m": legs_xy(truth_t),
+        "radius_m": caps[0].radius_m, "torso_xy_b_m": xy, "legs_xy_b_m": legs_xy(scenario, truth_t),
     }
     return recording, truth
 
@@ -212,9 +185,10 @@ def truth_path(recording_path: Path) -> Path:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="recording path (.jsonl.gz)")
+    parser.add_argument("--scenario", choices=list(SCENARIOS), default="reach-over")
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args(argv)
-    recording, truth = generate(args.seed)
+    recording, truth = generate(args.scenario, args.seed)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     write_recording(args.out, recording)
     np.savez_compressed(truth_path(args.out), **truth)
