@@ -18,6 +18,7 @@ equal on random states of every robot.
 from __future__ import annotations
 
 import logging
+import math
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -38,6 +39,7 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 logger = logging.getLogger(__name__)
 
 _REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict"}
+_EMPTY, _EMPTY3 = np.zeros(0), np.zeros((0, 3))
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 
 
@@ -121,6 +123,8 @@ class PackedArm:
         self._state = state
         self._pack: ConstraintPack | None = None
         self._params: tuple | None = None
+        self._layout: tuple | None = None
+        self._names: tuple | None = None
         self._pack_capsules()
 
     def _pack_capsules(self) -> None:
@@ -193,32 +197,44 @@ class PackedArm:
                               0, tuple(humans))
 
     def _human_arrays(self, pack: ConstraintPack):
-        """The human capsules of every human constraint, concatenated; per-constraint ints and sizes."""
-        ints, sizes = pack.ints, pack.before_start
+        """The human capsules of every human constraint, concatenated, and the layout: ints
+        (per-constraint human ranges), before_start (offsets of each constraint's distances),
+        the row bound. The layout is remade only when a human's capsule count changes."""
+        counts = tuple(len(con.radius) for con in pack.humans)
+        if self._layout is None or self._layout[0] is not pack or self._layout[1] != counts:
+            ints, sizes = pack.ints.copy(), pack.before_start.copy()
+            first, h = 0, 0
+            n_caps = len(self._state.capsules)
+            for i, kind in enumerate(pack.kinds):
+                if kind == HUMAN:
+                    ints[i, 1], ints[i, 2] = first, counts[h]
+                    sizes[i] = (n_caps - ints[i, 0]) * counts[h]
+                    first += counts[h]
+                    h += 1
+            before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
+            np.cumsum(sizes, out=before_start[1:])
+            max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
+            self._layout = (pack, counts, (ints, before_start, int(before_start[-1]), max_rows))
         if not pack.humans:
-            z3 = np.zeros((0, 3))
-            return ints, sizes, z3, z3, np.zeros(0), z3, z3
-        ints, sizes = ints.copy(), sizes.copy()
-        parts, first, h = [], 0, 0
-        n_caps = len(self._state.capsules)
-        for i, kind in enumerate(pack.kinds):
-            if kind == HUMAN:
-                con = pack.humans[h]
-                h += 1
-                count = len(con.radius)
-                ints[i, 1], ints[i, 2] = first, count
-                sizes[i] = (n_caps - ints[i, 0]) * count
-                parts.append(con)
-                first += count
-        if len(parts) == 1:
-            con = parts[0]
+            arrays = (_EMPTY3, _EMPTY3, _EMPTY, _EMPTY3, _EMPTY3)
+        elif len(pack.humans) == 1:
+            con = pack.humans[0]
             arrays = (con.p0, con.p1, con.radius, con.v0, con.v1)
         else:
-            arrays = tuple(np.concatenate([getattr(con, a) for con in parts]) for a in ("p0", "p1", "radius", "v0", "v1"))
-        return (ints, sizes, *(np.ascontiguousarray(a, dtype=float) for a in arrays))
+            arrays = tuple(np.concatenate([getattr(con, a) for con in pack.humans])
+                           for a in ("p0", "p1", "radius", "v0", "v1"))
+        return (*self._layout[2], *(np.ascontiguousarray(a, dtype=float) for a in arrays))
 
     # ---- names --------------------------------------------------------------------------------
     def _namer(self, pack: ConstraintPack):
+        """The row-name function of ``pack`` (made once per pack)."""
+        if self._names is not None and self._names[0] is pack:
+            return self._names[1]
+        name = self._make_namer(pack)
+        self._names = (pack, name)
+        return name
+
+    def _make_namer(self, pack: ConstraintPack):
         state = self._state
         nv, k = state.nv, self.k
         axes = "xyz"[:k]
@@ -260,9 +276,9 @@ class PackedArm:
             raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
         if not dt_s > 0:
             raise ValueError(f"dt_s must be positive, got {dt_s}")
-        if not np.all(np.isfinite(v)):
+        speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        if not math.isfinite(speed):
             return self._reference("non-finite command", *args)
-        speed = np.linalg.norm(v)
         if speed > params.max_speed_m_s:
             v = v * params.max_speed_m_s / speed
         k = self.k
@@ -270,13 +286,10 @@ class PackedArm:
         previous = np.zeros(k)
         if v_previous is not None:
             previous = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
-            previous = np.ascontiguousarray(previous) if np.all(np.isfinite(previous)) else np.zeros(k)
+            previous = np.ascontiguousarray(previous) if math.isfinite(previous.sum()) else np.zeros(k)
         if self._params is None or self._params[0] is not params:
             self._params = (params, params_vector(params))
-        ints, sizes, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
-        before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=before_start[1:])
-        max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
+        ints, before_start, n_before, max_rows, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
         (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, violation, net_scale, p_ee, R_ee, J6, p0, p1,
@@ -285,7 +298,7 @@ class PackedArm:
             _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
             self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
             self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
-            float(state.lever_m), pack.kinds, pack.reals, ints, before_start, int(before_start[-1]), max_rows, hp0, hp1,
+            float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1,
             hr, hv0, hv1, self._params[1])
         if status != STATUS_DONE:
             return self._reference(_REASONS[status], *args)
@@ -294,7 +307,7 @@ class PackedArm:
         names = tuple(namer(t) for t in tags[binding])
         command_full = np.zeros(3)
         command_full[:k] = command
-        relaxed = bool(np.any(violation > 0.0))
+        relaxed = violation.size > 0 and violation.max() > 0.0
         reason = ""
         if relaxed:
             worst = int(np.argmax(violation))
