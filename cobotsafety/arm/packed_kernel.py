@@ -16,7 +16,7 @@ from cobotsafety.arm.packed_kinematics import attached_point, forward_kinematics
 from cobotsafety.arm.packed_measures import JOINT, capsule_points, constraint_distances, measure_rows
 from cobotsafety.arm.packed_projection import relax_kernel
 from cobotsafety.projection import RELAXATION_COMMAND_WEIGHT
-from cobotsafety.arm.step import SECONDARY_RELATIVE_TOLERANCE
+from cobotsafety.arm.step import NEGLIGIBLE_NORMAL, SECONDARY_RELATIVE_TOLERANCE
 
 CROSSING_TOLERANCE_M = 1e-9
 BINDING_TOLERANCE = 1e-9
@@ -117,6 +117,12 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
     hard = method != METHOD_ANTICIPATIVE
     braking = np.inf if hard else max_accel
     normals = A @ M
+    for i in range(m):
+        s = 0.0
+        for b in range(k):
+            s += normals[i, b] * normals[i, b]
+        if np.sqrt(s) < NEGLIGIBLE_NORMAL:
+            normals[i, :] = 0.0
     secondary = A @ c
     human = np.minimum(rate, 0.0)
     offset = secondary + human
