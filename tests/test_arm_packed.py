@@ -34,6 +34,7 @@ RELAXED_M = 1e-6
 stage weighted 1e-2, conditioned ~1e4 worse) or scaled down by the safety net's bisection (its
 2^-25 resolution on the step): rounding moves its result by up to ~1e-7 rad."""
 STOP_TIE_M_S = 1e-9
+HALFSPACE_NEAR_SINGULAR = 1e-9
 
 
 def random_q(model, rng) -> np.ndarray:
@@ -122,13 +123,16 @@ def test_packed_step_equals_reference(robot):
         expected = step(reference, v, dt_s, constraints, params, method, R_ref, None, v_previous)
         got = packed.step(fast, v, dt_s, constraints, params, method, R_ref, None, v_previous)
         context = f"{robot} state {i}: q={q.tolist()}"
-        # The half-spaces: always the same rows, equal to rounding.
+        # The half-spaces: always the same rows, equal to rounding (relative to the row's size;
+        # near a singularity the mapping's conditioning amplifies rounding: HALFSPACE_NEAR_SINGULAR).
         assert tuple(got.halfspaces.names) == expected.halfspaces.names, context
         size = np.maximum(1.0, np.abs(expected.halfspaces.normals).max(axis=1, initial=0.0))
-        assert np.all(np.abs(got.halfspaces.normals - expected.halfspaces.normals).max(axis=1, initial=0.0)
-                      <= EXACT_M * size), context
-        assert np.all(np.abs(got.halfspaces.bounds - expected.halfspaces.bounds) <= EXACT_M * np.maximum(
-            1.0, np.abs(expected.halfspaces.bounds))), context
+        error = max(float((np.abs(got.halfspaces.normals - expected.halfspaces.normals).max(axis=1, initial=0.0)
+                           / size).max(initial=0.0)),
+                    float((np.abs(got.halfspaces.bounds - expected.halfspaces.bounds)
+                           / np.maximum(1.0, np.abs(expected.halfspaces.bounds))).max(initial=0.0)))
+        assert error <= HALFSPACE_NEAR_SINGULAR, context
+        outcomes["half-spaces exact"] += error <= EXACT_M
         dq = float(np.max(np.abs(fast.q - reference.q)))
         kind = "relaxed" if expected.relaxed or expected.net_scale < 1.0 else "plain"
         # "stopped" is |command| <= 1e-12 m/s: a command of that size is a tie with rounding.
@@ -143,6 +147,7 @@ def test_packed_step_equals_reference(robot):
         outcomes["binding"] += bool(expected.binding)
         worst[kind] = max(worst[kind], dq)
     print(robot, dict(outcomes), {k: f"{w:.1e}" for k, w in worst.items()}, dict(packed.fallbacks))
+    assert outcomes["half-spaces exact"] >= 0.995 * STATES_PER_ROBOT, outcomes
     # Plain steps (no relaxation, no bisection): the same decisions and q to 1e-12, but for
     # ties of a threshold with rounding (a command of ~1e-12 m/s is "stopped" or not).
     # ties of a threshold with rounding (a command of ~1e-12 m/s is "stopped" or not) and
