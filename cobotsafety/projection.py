@@ -120,7 +120,8 @@ def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.
 
     Raises:
         ValueError: wrong shapes or non-finite inputs (as ``slide``).
-        InfeasibleConstraintsError: the hard rows alone contradict each other.
+        InfeasibleConstraintsError: the hard rows alone contradict each other (or the active
+            set degenerated on dependent rows).
     """
     v, N, b = _as_inputs(v_desired, normals, bounds)
     soft = np.asarray(soft, dtype=bool).reshape(-1)
@@ -129,9 +130,9 @@ def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.
     violation = np.zeros_like(b)
     try:
         return slide(v, N, b), violation
-    except InfeasibleConstraintsError:
+    except (InfeasibleConstraintsError, np.linalg.LinAlgError):  # degenerate rows count as contradicting
         if not np.any(soft):
-            raise
+            raise InfeasibleConstraintsError(f"the {N.shape[0]} hard half-spaces contradict each other") from None
     floors = np.full_like(b, -np.inf) if floor is None else np.broadcast_to(np.asarray(floor, dtype=float), b.shape)
     if np.any(np.isnan(floors)):
         raise ValueError("floor contains NaN")
@@ -142,13 +143,16 @@ def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.
     G = np.zeros((N.shape[0] + floored.size, n + k))
     G[:, :n] = np.vstack([N, N[floored]]) / RELAXATION_COMMAND_WEIGHT
     G[np.flatnonzero(soft), n + np.arange(k)] = 1.0
-    x = slide(np.zeros(n + k), G, np.concatenate([b, floors[floored]]))
+    try:
+        x = slide(np.zeros(n + k), G, np.concatenate([b, floors[floored]]))
+    except np.linalg.LinAlgError:
+        raise InfeasibleConstraintsError("the relaxation's active set degenerated (dependent rows)") from None
     v_least = x[:n] / RELAXATION_COMMAND_WEIGHT
     violation[soft] = np.maximum(b[soft] - N[soft] @ v_least, 0.0)
     try:
         return slide(v, N, b - violation), violation
-    except InfeasibleConstraintsError:  # rounding at the relaxed bounds: v_least satisfies them
-        return v_least, violation
+    except (InfeasibleConstraintsError, np.linalg.LinAlgError):  # rounding at the relaxed bounds
+        return v_least, violation  # which satisfies them
 
 
 def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:

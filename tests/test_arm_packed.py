@@ -22,6 +22,7 @@ from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.arm.step import ArmParams, step
 from cobotsafety.arm.teleop import ArmTeleop, default_constraints, default_zones, reach_limits
 from cobotsafety.control.human_constraint import HumanCapsulesConstraint
+from cobotsafety.human.body import HumanCapsules
 
 STATES_PER_ROBOT = int(os.environ.get("COBOTSAFETY_PACKED_STATES", "500"))
 """Random states per robot (the reference step costs ~2-6 ms each on a loaded 2-core machine);
@@ -92,8 +93,8 @@ def _human_beside(state: RobotState, rng, count: int = 5):
     centre = 0.5 * (state.capsule_p0[c] + state.capsule_p1[c]) + rng.normal(size=3) * 0.25
     p0 = centre + rng.normal(size=(count, 3)) * 0.15
     p1 = p0 + rng.normal(size=(count, 3)) * 0.15
-    return (p0, p1, rng.uniform(0.03, 0.12, count), rng.normal(size=(count, 3)) * 0.5,
-            rng.normal(size=(count, 3)) * 0.5)
+    return HumanCapsules(p0, p1, rng.uniform(0.03, 0.12, count), tuple(f"h{i}" for i in range(count)),
+                         v0_b_m_s=rng.normal(size=(count, 3)) * 0.5, v1_b_m_s=rng.normal(size=(count, 3)) * 0.5)
 
 
 @pytest.mark.parametrize("robot", list(ROBOTS))
@@ -114,7 +115,7 @@ def test_packed_step_equals_reference(robot):
         reference.q, fast.q = q.copy(), q.copy()
         reference.update()
         fast.update()
-        human.set_human(*_human_beside(reference, rng))
+        human.set_human(_human_beside(reference, rng))
         v = rng.normal(size=3) * rng.uniform(0.0, 1.0)
         # The previous command: often near this one (the acceleration bound binds or not).
         v_previous = None if i % 3 == 0 else v + rng.normal(size=3) * rng.choice([0.001, 0.01, 0.1])

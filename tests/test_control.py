@@ -3,7 +3,6 @@ the anti-windup PI, ISO/TS 15066 numbers by hand, the potential field, the exper
 
 from __future__ import annotations
 
-import json
 import logging
 
 import numpy as np
@@ -16,8 +15,15 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 from cobotsafety.control.pi import AntiWindupPI
 from cobotsafety.control.potential_field import PotentialFieldParams, repulsion_speed
 from cobotsafety.control.ssm import SsmParams
+from cobotsafety.human.body import HumanCapsules
 
 logging.getLogger("cobotsafety.filter").setLevel(logging.ERROR)
+
+
+def capsule(p0, p1, radius, v_h=None, t_s=0.0) -> HumanCapsules:
+    """One human capsule; ``v_h`` (3,): both end points' velocity (None: estimated by the arm)."""
+    v = None if v_h is None else np.array([v_h], dtype=float)
+    return HumanCapsules([p0], [p1], [radius], ("torso",), t_s=t_s, v0_b_m_s=v, v1_b_m_s=v)
 
 
 def test_human_constraint_normal_matches_finite_differences_along_the_command():
@@ -30,7 +36,7 @@ def test_human_constraint_normal_matches_finite_differences_along_the_command():
     for _ in range(20):
         p = state.p_world_ee + rng.normal(size=3) * 0.15
         human = HumanCapsulesConstraint(activation_m=5.0)
-        human.set_human([p], [p + rng.normal(size=3) * 0.2], [0.08])
+        human.set_human(capsule(p, p + rng.normal(size=3) * 0.2, 0.08))
         measures = human.measures(state)
         v = rng.normal(size=3)
         q0 = state.q.copy()
@@ -54,11 +60,11 @@ def test_human_velocity_enters_as_the_rate_of_the_distance():
     p = state.p_world_ee + np.array([0.0, 0.35, 0.0])
     v_h = np.array([0.0, -0.5, 0.0])  # walking straight at the hand
     human = HumanCapsulesConstraint()
-    human.set_human([p], [p + [0, 0, 0.3]], [0.1], [v_h], [v_h])
+    human.set_human(capsule(p, p + [0, 0, 0.3], 0.1, v_h=v_h))
     m = human.measures(state)
     dt = 1e-6
     moved = HumanCapsulesConstraint()
-    moved.set_human([p + v_h * dt], [p + [0, 0, 0.3] + v_h * dt], [0.1])
+    moved.set_human(capsule(p + v_h * dt, p + [0, 0, 0.3] + v_h * dt, 0.1))
     fd = (moved.measures(state).distance - m.distance) / dt
     np.testing.assert_allclose(m.rate, fd, rtol=1e-4, atol=1e-6)
 
@@ -70,7 +76,7 @@ def moving_human_run(controller, steps=900, dt=0.004):
     for i in range(steps):
         # 0.3 m/s toward the robot's hand for 1.5 s, then the human stands there.
         p = start + np.array([0.0, -0.3, 0.0]) * min(i * dt, 1.5)
-        arm.set_human(i * dt, [p], [p + [0.0, 0.0, 0.4]], [0.12])
+        arm.set_human(capsule(p, p + [0.0, 0.0, 0.4], 0.12, t_s=i * dt))
         result = arm.step(np.zeros(3), dt, controller)  # the robot is asked to hold still
         distances.append(result.min_distance_m)
         stopped.append(result.report.stopped)
@@ -115,11 +121,11 @@ def test_ssm_slows_the_approach_but_not_the_retreat():
     params = ArmParams(max_accel_m_s2=np.inf)
     arm = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05), params=params)
     p = arm.state.p_world_ee + np.array([0.0, 0.87, 0.0])
-    arm.set_human(0.0, [p], [p], [0.05])
+    arm.set_human(capsule(p, p, 0.05))
     toward = arm.step(np.array([0.0, 0.3, 0.0]), 0.002, "anticipative", ssm=True)
     assert 0.0 < toward.report.v_executed_m_s[1] < 0.2  # limited toward the human
     arm2 = HumanAwareArm("panda", human=HumanCapsulesConstraint(activation_m=2.0, critical_m=0.05), params=params)
-    arm2.set_human(0.0, [p], [p], [0.05])
+    arm2.set_human(capsule(p, p, 0.05))
     away = arm2.step(np.array([0.0, -0.3, 0.0]), 0.002, "anticipative", ssm=True)
     np.testing.assert_allclose(away.report.v_commanded_m_s, [0.0, -0.3, 0.0], atol=1e-9)  # not slowed
 
@@ -129,7 +135,7 @@ def test_a_larger_stale_human_never_lets_the_robot_approach_faster():
     for radius in (0.05, 0.15, 0.3):  # the degraded model grows while the sensors are silent
         arm = HumanAwareArm("panda")
         p = arm.state.p_world_ee + np.array([0.0, 0.7, 0.0])
-        arm.set_human(0.0, [p], [p], [radius])
+        arm.set_human(capsule(p, p, radius))
         result = arm.step(np.array([0.0, 0.4, 0.0]), 0.004, "anticipative")
         speeds.append(result.report.v_executed_m_s[1])
     assert speeds[0] >= speeds[1] - 1e-9 >= speeds[2] - 2e-9
@@ -140,20 +146,3 @@ def test_repulsion_magnitude_is_eq_18():
     assert repulsion_speed(0.6, p) == 0.0
     assert repulsion_speed(0.35, p) == pytest.approx(0.1 * (0.3 / 0.15 - 1))
     assert repulsion_speed(0.2, p) == p.max_repulsion_m_s
-
-
-def test_human_approach_experiment_json(capsys, tmp_path):
-    from cobotsafety.cli import main
-
-    assert main(["experiment", "human-approach", "--json", "--dt", "0.01", "--out", str(tmp_path)]) == 0
-    results = {r["controller"]: r for r in json.loads(capsys.readouterr().out)}
-    assert set(results) == {"anticipative", "reactive", "stop"}
-    for r in results.values():
-        assert set(r) == {"controller", "min_distance_m", "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s"}
-        assert r["completion_time_s"] is not None and 20.0 < r["completion_time_s"] < 60.0
-        assert 0.0 < r["peak_ee_speed_m_s"] < 2.5  # bounded by the joint speed limits
-        assert r["min_distance_m"] < 0.5  # the human does come close
-    # The stop baseline stands still the longest and lets the human closest.
-    assert results["stop"]["stopped_time_s"] > results["anticipative"]["stopped_time_s"]
-    assert results["stop"]["min_distance_m"] < results["anticipative"]["min_distance_m"]
-    assert len(list(tmp_path.glob("*.png"))) == 6

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cobotsafety.arm.zones import BoxZone
-from cobotsafety.control.teleop import HumanAwareTeleop
+from cobotsafety.control.human_aware import HumanAwareTeleop
 from cobotsafety.geometry.capsule import capsule_distance
 from cobotsafety.human.body import HumanCapsules
 from cobotsafety.teleop import Teleoperated

@@ -292,14 +292,18 @@ class PackedArm:
         ints, before_start, n_before, max_rows, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
+        try:
+            result = packed_step(
+                np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
+                _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
+                self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
+                self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
+                float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1,
+                hr, hv0, hv1, self._params[1])
+        except np.linalg.LinAlgError:  # an active set on dependent rows: the reference says why
+            return self._reference("singular active set", *args)
         (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, violation, net_scale, p_ee, R_ee, J6, p0, p1,
-         origins) = packed_step(
-            np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
-            _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
-            self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
-            self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
-            float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1,
-            hr, hv0, hv1, self._params[1])
+         origins) = result
         if status != STATUS_DONE:
             return self._reference(_REASONS[status], *args)
         state.set_kinematics(q_next, p_ee, R_ee, J6, p0, p1, origins)

@@ -46,7 +46,7 @@ from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.constraint import HalfSpaces
 from cobotsafety.errors import InfeasibleConstraintsError
 from cobotsafety.filter import BINDING_TOLERANCE
-from cobotsafety.projection import relax
+from cobotsafety.projection import relax, slide
 
 logger = logging.getLogger(__name__)
 
@@ -342,12 +342,17 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
             previous = previous if np.all(np.isfinite(previous)) else np.zeros_like(vk)
         try:
             command, violation = filter_command(vk, hs, previous, dt_s, params)
-        except InfeasibleConstraintsError as error:  # the approach-nothing rows alone: rounding
-            command, violation, reason = np.zeros_like(vk), np.zeros(hs.bounds.shape[0]), f"limits contradict: {error}"
+        except InfeasibleConstraintsError as error:  # degenerate rows: approach nothing, else stop
+            violation = np.maximum(hs.bounds, 0.0)
+            reason = f"limits contradict ({error}): approaching nothing"
+            try:
+                command = slide(vk, hs.normals, hs.bounds - violation)
+            except (InfeasibleConstraintsError, ValueError):
+                command, reason = np.zeros_like(vk), f"limits contradict ({error}): stopped"
         slack = hs.normals @ command - (hs.bounds - violation)
         binding = tuple(name for name, gap in zip(hs.names, slack) if gap <= BINDING_TOLERANCE)
         relaxed = bool(np.any(violation > 0.0))
-        if relaxed:
+        if relaxed and not reason:
             worst = int(np.argmax(violation))
             reason = (f"retreats contradict: relaxed {int(np.sum(violation > 0))} row(s), "
                       f"at most {violation[worst]:.3g} m/s ({hs.names[worst]})")

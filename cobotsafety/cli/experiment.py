@@ -8,7 +8,8 @@ from cobotsafety.cli._dispatch import add_modules
 
 EXPERIMENTS: dict[str, tuple[str, str]] = {
     "multi-limitation": ("cobotsafety.experiments.multi_limitation", "paper 1, experiment 3 (Fig. 9)"),
-    "human-approach": ("cobotsafety.experiments.human_approach", "paper 2, experiment 2 (Figs. 11, 12, 14)"),
+    "human-approach": ("cobotsafety.experiments.human_approach",
+                       "paper 2, experiments 1 and 2 and the reach-over stress case (Figs. 11, 12, 14)"),
 }
 
 

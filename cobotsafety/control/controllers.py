@@ -26,6 +26,7 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 from cobotsafety.control.human_velocity import HumanVelocityEstimator
 from cobotsafety.control.potential_field import PotentialFieldParams, potential_field_qdot
 from cobotsafety.control.ssm import SsmParams, ssm_halfspaces
+from cobotsafety.human.body import HumanCapsules
 from cobotsafety.projection import slide
 from cobotsafety.teleop import StepReport
 
@@ -41,7 +42,7 @@ class HumanStep:
 
 
 class HumanAwareArm:
-    """An arm that knows where the human is. ``set_human`` before every ``step``.
+    """An arm that knows where the human is. ``set_human(HumanCapsules)`` before every ``step``.
 
     ``fast=False`` steps on the reference path instead of the packed one (``ArmTeleop``)."""
 
@@ -60,12 +61,26 @@ class HumanAwareArm:
     def state(self):
         return self.teleop.state
 
-    def set_human(self, t_s: float, p0, p1, radius, names=()) -> None:
-        v0, v1 = self.velocity.update(t_s, p0, p1)
-        self.human.set_human(p0, p1, radius, v0, v1, names)
+    def set_human(self, human: HumanCapsules | None, *legacy) -> None:
+        """The human now (robot base frame); None or an absent human clears it. Without
+        end-point velocities, they are estimated here (``HumanVelocityEstimator``).
+
+        ``set_human(t_s, p0, p1, radius, names)`` (the former signature) is still accepted for
+        callers not yet ported; it builds the ``HumanCapsules``.
+        """
+        if legacy:
+            p0, p1, radius, *names = legacy
+            radius = np.asarray(radius, dtype=float).reshape(-1)
+            names = tuple(names[0]) if names and len(names[0]) else tuple(f"human {i}" for i in range(radius.size))
+            human = HumanCapsules(p0, p1, radius, names, t_s=float(human))
+        if human is not None and human.present and human.v0_b_m_s is None:
+            human = self.velocity.update(human)
+        elif human is None or not human.present:
+            self.velocity.reset()
+        self.human.set_human(human)
 
     def clear_human(self) -> None:
-        self.human.set_human(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        self.set_human(None)
 
     def _ssm_rows(self, M, c):
         measures = self.human.measures(self.state)

@@ -20,6 +20,7 @@ import numpy as np
 from cobotsafety.arm.constraints import ArmConstraint, Measures
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.packed_measures import human_pairs
+from cobotsafety.human.body import HumanCapsules
 
 DEFAULT_CRITICAL_M = 0.25
 DEFAULT_ACTIVATION_M = 0.60
@@ -29,7 +30,7 @@ DEFAULT_ACTIVATION_M = 0.60
 class HumanCapsulesConstraint(ArmConstraint):
     """Keeps every robot capsule ``critical_m`` away from every human capsule.
 
-    Set ``p0, p1, radius`` (k, 3), (k, 3), (k,) and the end-point velocities ``v0, v1`` before
+    Give it the human (``HumanCapsules``, with end-point velocities or without: zeros) before
     each step (``set_human``).
     """
 
@@ -44,12 +45,14 @@ class HumanCapsulesConstraint(ArmConstraint):
     v1: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     human_names: tuple[str, ...] = ()
 
-    def set_human(self, p0, p1, radius, v0=None, v1=None, names=()) -> None:
-        self.p0, self.p1 = np.asarray(p0, float).reshape(-1, 3), np.asarray(p1, float).reshape(-1, 3)
-        self.radius = np.asarray(radius, float).reshape(-1)
-        self.v0 = np.zeros_like(self.p0) if v0 is None else np.asarray(v0, float).reshape(-1, 3)
-        self.v1 = np.zeros_like(self.p1) if v1 is None else np.asarray(v1, float).reshape(-1, 3)
-        self.human_names = tuple(names) or tuple(f"human {i}" for i in range(len(self.radius)))
+    def set_human(self, human: HumanCapsules | None) -> None:
+        """The human now (robot base frame); None or an absent human clears it."""
+        if human is None:
+            human = HumanCapsules.absent()
+        self.p0, self.p1, self.radius = human.p0_b_m, human.p1_b_m, human.radius_m
+        self.v0 = np.zeros_like(self.p0) if human.v0_b_m_s is None else human.v0_b_m_s
+        self.v1 = np.zeros_like(self.p1) if human.v1_b_m_s is None else human.v1_b_m_s
+        self.human_names = human.names
 
     def pairs(self, state: RobotState):
         """Distances (c, k) [m], robot points (c, k, 3), human points (c, k, 3)."""

@@ -18,7 +18,7 @@ target (eqs. 14-15), filtered by the chosen controller:
 
 Distances (paper 2 gives none of its parameters: eq. 18 names ``d_cr``, ``d_o`` and ``k_rep``
 only). Paper 2's field: ``d_cr`` = ``PAPER_CRITICAL_M`` = 0.30 m, activation ``d_cr + d_o`` =
-``PAPER_ACTIVATION_M`` = 0.90 m, ``k_rep`` = ``PAPER_K_REP_M_S`` = 0.4 m/s. The paper's
+``PAPER_ACTIVATION_M`` = 0.90 m, ``k_rep`` = ``PAPER_K_REP_M_S`` = 0.3 m/s. The paper's
 minima (431 and 393 mm) lie between ``d_cr`` and the activation; the field must start early
 enough (0.9 m) that a co-worker walking at up to 1.35 m/s, seen by the scanner only within its
 1.4 m clip, meets a retreat before the 0.4 m mark; with these three values the field reproduces
@@ -46,8 +46,10 @@ CONTROLLERS = ("anticipative", "reactive", "stop")
 CONTROL_RATE_HZ = 275.0
 PAPER_CRITICAL_M = 0.30
 PAPER_ACTIVATION_M = 0.90
-PAPER_K_REP_M_S = 0.40
+PAPER_K_REP_M_S = 0.30
 PROTECTED_M = 0.50
+#: The attraction to the task path (eq. 15) saturates at the filter's maximum speed.
+TASK_SPEED_LIMIT_M_S = 0.5
 DEFAULT_ROBOT = "iiwa"
 #: Paper 2, section 5: minimum distance kept [m] and peak end-effector speed [m/s].
 PAPER_RESULTS = {"exp1": (0.431, 0.355), "exp2": (0.393, 0.548)}
@@ -133,7 +135,7 @@ def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", rob
     arm.state.use_capsules(capsules)
     state, skip = arm.state, human.skip_capsules
     path = task_path(scenario, state.p_world_ee.copy(), replay.duration_s, replay_file is not None)
-    pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=0.5)
+    pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=TASK_SPEED_LIMIT_M_S)
     body = replay.recording.body
     end_s = min(timeout_s, duration_s if duration_s is not None else np.inf)
     log = {k: [] for k in ("t", "d", "plain", "p", "v", "v_att", "stopped", "torso")}
@@ -143,7 +145,7 @@ def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", rob
         replay_t = replay.start_s + t
         capsules_now = replay.capsules_at(replay_t) if t <= replay.duration_s else None
         if capsules_now is not None and capsules_now.present:
-            arm.set_human(t, capsules_now.p0_b_m, capsules_now.p1_b_m, capsules_now.radius_m, capsules_now.names)
+            arm.set_human(capsules_now)
             log["torso"].append(0.5 * (capsules_now.p0_b_m[0, :2] + capsules_now.p1_b_m[0, :2]))
         else:
             arm.clear_human()  # nobody in range, or the recording is over: the human has left

@@ -6,7 +6,7 @@ plane). The chest point sits ``chest_height_m`` (the paper's ``l``) above that p
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -83,7 +83,9 @@ class HumanCapsules:
     [m]. ``names``: k names (``CAPSULE_NAMES_5``, ``CAPSULE_NAMES_1`` or ``()`` when nobody is
     in range). ``stale``: True when a sensor stream is older than its threshold and the model
     was made more conservative; ``reason``: a sentence for the app ("" when all is fresh).
-    ``t_s``: the time the capsules describe.
+    ``t_s``: the time the capsules describe. ``v0_b_m_s``, ``v1_b_m_s``: shape (k, 3) [m/s],
+    the end points' estimated velocities, or None when not estimated (the human-aware arm
+    estimates them, ``cobotsafety.control.human_velocity``).
     """
 
     p0_b_m: np.ndarray
@@ -94,6 +96,8 @@ class HumanCapsules:
     stale: bool = False
     reason: str = ""
     ages_s: dict = field(default_factory=dict)
+    v0_b_m_s: np.ndarray | None = None
+    v1_b_m_s: np.ndarray | None = None
 
     def __post_init__(self):
         p0 = np.asarray(self.p0_b_m, dtype=float).reshape(-1, 3)
@@ -112,6 +116,21 @@ class HumanCapsules:
         object.__setattr__(self, "p1_b_m", p1)
         object.__setattr__(self, "radius_m", radius)
         object.__setattr__(self, "names", tuple(self.names))
+        if (self.v0_b_m_s is None) != (self.v1_b_m_s is None):
+            raise ValueError("HumanCapsules: give both end-point velocities or neither")
+        if self.v0_b_m_s is not None:
+            v0 = np.asarray(self.v0_b_m_s, dtype=float).reshape(-1, 3)
+            v1 = np.asarray(self.v1_b_m_s, dtype=float).reshape(-1, 3)
+            if v0.shape != (k, 3) or v1.shape != (k, 3):
+                raise ValueError(f"HumanCapsules: {k} names but velocities {v0.shape}, {v1.shape}")
+            if not (np.isfinite(v0).all() and np.isfinite(v1).all()):
+                raise ValueError("HumanCapsules: non-finite end-point velocity")
+            object.__setattr__(self, "v0_b_m_s", v0)
+            object.__setattr__(self, "v1_b_m_s", v1)
+
+    def with_velocities(self, v0_b_m_s: np.ndarray, v1_b_m_s: np.ndarray) -> "HumanCapsules":
+        """The same capsules with these end-point velocities (k, 3) [m/s]."""
+        return replace(self, v0_b_m_s=v0_b_m_s, v1_b_m_s=v1_b_m_s)
 
     @property
     def present(self) -> bool:

@@ -1,15 +1,17 @@
-"""Generate the bundled recording from a scripted human, with its ground truth.
+"""Generate a bundled recording from a scripted human, with its ground truth.
 
-    python -m cobotsafety.human.generate_recording --out assets/recordings/approach.jsonl.gz
+    python -m cobotsafety.human.generate_recording --scenario exp1|exp2|reach-over \
+        --out assets/recordings/NAME.jsonl.gz
 
-writes the recording and ``approach_truth.npz`` beside it (same stem + ``_truth.npz``).
+writes the recording and ``NAME_truth.npz`` beside it (same stem + ``_truth.npz``).
 Deterministic (``--seed``, default 7): the same arguments give the same bytes.
 
 Scene (robot base frame: origin at the robot base, z = 0 the table top, floor at z = -0.75 m):
-the laser (SICK TiM-like: 271 beams over 270 deg, 1 deg steps, 8 m, 50 Hz) sits at the table
-corner (``scenario.scanner_xy_m``) at leg height, looking away from the table. The human (``BODY``)
-stands ~2.5 m away, walks to the table edge (torso ~0.6 m from the robot base), reaches over
-the table with the right arm, steps back and walks away. Five IMUs (~300 Hz, jittered stamps)
+the laser (SICK TiM-like: 271 beams over 270 deg, 1 deg steps, 8 m, 50 Hz) sits at leg height
+where the scenario puts it (``scenario.scanner_xy_m``, ``scanner_yaw_rad``). The human
+(``BODY``) follows the scenario's script (``cobotsafety.human.scenarios``: where the torso
+walks and faces, what the arms reach for; walking swings the arms and alternates the feet).
+Five IMUs (~300 Hz, jittered stamps)
 read their orientation in their own reference frame (an unknown heading each) with noise and
 a slow heading drift; the forearm_left IMU goes silent for ``IMU_GAP_S`` (a dropout the
 pipeline must survive). Laser: range noise, single-beam dropouts and whole lost scans.
