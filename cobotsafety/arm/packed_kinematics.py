@@ -34,6 +34,8 @@ _LOG3_PRECISION = _EPS ** (1.0 / 3.0)  # pinocchio's TaylorSeriesExpansion<doubl
 def forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op):  # pragma: no cover - compiled
     """World placements of every joint: rotations ``oR`` (nj, 3, 3), origins ``op`` (nj, 3), in place."""
     nj = jtype.shape[0]
+    Rj = np.empty((3, 3))
+    liR = np.empty((3, 3))
     for r in range(3):
         op[0, r] = 0.0
         for col in range(3):
@@ -46,7 +48,6 @@ def forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, 
         else:
             s, c = np.sin(q[iq]), np.cos(q[iq])
         # Local rotation of the joint about its unit axis (Rodrigues; exact for x, y, z).
-        Rj = np.empty((3, 3))
         x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
         c1 = 1.0 - c
         Rj[0, 0], Rj[1, 1], Rj[2, 2] = c1 * x * x + c, c1 * y * y + c, c1 * z * z + c
@@ -55,7 +56,6 @@ def forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, 
         Rj[1, 2], Rj[2, 1] = c1 * y * z - s * x, c1 * y * z + s * x
         pj = parent[j]
         # liMi = placement * M_joint: rotation placement_R @ Rj, translation placement_t.
-        liR = np.zeros((3, 3))
         for r in range(3):
             for col in range(3):
                 liR[r, col] = placement_R[j, r, 0] * Rj[0, col] + placement_R[j, r, 1] * Rj[1, col] \
