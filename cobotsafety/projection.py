@@ -137,22 +137,32 @@ def relax(v_desired, normals, bounds, soft, floor=None) -> tuple[np.ndarray, np.
     if np.any(np.isnan(floors)):
         raise ValueError("floor contains NaN")
     n, k = N.shape[1], int(soft.sum())
-    floored = np.flatnonzero(soft & np.isfinite(floors) & (floors < b))
-    # Stage 1 as a least-distance problem in x = (w v, s): the hard rows and the floors on w v,
-    # the soft rows on (w v, s).
-    G = np.zeros((N.shape[0] + floored.size, n + k))
-    G[:, :n] = np.vstack([N, N[floored]]) / RELAXATION_COMMAND_WEIGHT
-    G[np.flatnonzero(soft), n + np.arange(k)] = 1.0
+    soft_rows = np.flatnonzero(soft)
+    capped = np.flatnonzero(np.isfinite(floors[soft_rows]))  # positions among the soft rows
+    # Stage 1 as a least-distance problem in x = (w v, s): the hard rows on w v, the soft rows
+    # on (w v, s), and each floor as a cap on its slack, s_i <= b_i - floor_i (which with
+    # N_i v + s_i >= b_i gives N_i v >= floor_i, and keeps the rows well conditioned).
+    G = np.zeros((N.shape[0] + capped.size, n + k))
+    G[:N.shape[0], :n] = N / RELAXATION_COMMAND_WEIGHT
+    G[soft_rows, n + np.arange(k)] = 1.0
+    G[N.shape[0] + np.arange(capped.size), n + capped] = -1.0
+    h = np.concatenate([b, floors[soft_rows[capped]] - b[soft_rows[capped]]])
     try:
-        x = slide(np.zeros(n + k), G, np.concatenate([b, floors[floored]]))
+        x = slide(np.zeros(n + k), G, h)
     except np.linalg.LinAlgError:
         raise InfeasibleConstraintsError("the relaxation's active set degenerated (dependent rows)") from None
     v_least = x[:n] / RELAXATION_COMMAND_WEIGHT
     violation[soft] = np.maximum(b[soft] - N[soft] @ v_least, 0.0)
     try:
-        return slide(v, N, b - violation), violation
+        v_relaxed = slide(v, N, b - violation)
     except (InfeasibleConstraintsError, np.linalg.LinAlgError):  # rounding at the relaxed bounds
-        return v_least, violation  # which satisfies them
+        v_relaxed = v_least  # which satisfies them
+    # Never hand out a command that breaks a hard row or a floor (an ill-conditioned stage).
+    scale = np.maximum(1.0, np.abs(b))
+    floor_ok = ~np.isfinite(floors) | ~soft | (N @ v_relaxed >= floors - 1e-6 * np.maximum(1.0, np.abs(floors)))
+    if np.any((N @ v_relaxed < b - violation - 1e-6 * scale)) or not np.all(floor_ok):
+        raise InfeasibleConstraintsError("the relaxation did not meet its hard rows (ill-conditioned rows)")
+    return v_relaxed, violation
 
 
 def _least_distance(G: np.ndarray, h: np.ndarray) -> np.ndarray:

@@ -112,3 +112,19 @@ def test_the_contradiction_warning_comes_once_per_episode_with_a_count(caplog):
     robot.reset()
     assert robot.step(np.zeros(3), DT).contradictions == 1  # a new episode counts afresh
     assert len([r for r in caplog.records if "contradict" in r.getMessage()]) == 2
+
+
+def test_the_human_aware_arm_yields_for_a_dwell_instead_of_stopping_and_going():
+    from cobotsafety.control.controllers import YIELD_DWELL_S, HumanAwareArm
+
+    arm = HumanAwareArm("panda")
+    # Opposite retreats along y: no motion along y meets either; the command asks for y only.
+    rows = HandRows(np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]), np.array([-0.002, -0.002]), np.array([-0.3, -0.2]))
+    arm.teleop.extra_constraints.append(rows)
+    first = arm.step(np.array([0.0, 0.3, 0.0]), DT).report
+    assert first.stopped and first.reason.startswith("yielding: retreats contradict")
+    arm.teleop.extra_constraints.remove(rows)  # the contradiction is gone at once ...
+    steps = int(round(YIELD_DWELL_S / DT))
+    reports = [arm.step(np.array([0.0, 0.3, 0.0]), DT).report for _ in range(steps + 5)]
+    assert all(r.stopped and r.reason.startswith("yielding") for r in reports[:steps - 1])  # ... it still yields
+    assert not reports[-1].stopped and reports[-1].v_commanded_m_s[1] > 0.0  # then goes, once

@@ -16,6 +16,7 @@ the same half-spaces are applied to its joint velocities.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +32,8 @@ from cobotsafety.projection import slide
 from cobotsafety.teleop import StepReport
 
 CONTROLLERS = ("anticipative", "reactive", "stop")
+#: How long the anticipative arm yields [s] once contradicting retreats left it no motion.
+YIELD_DWELL_S = 0.3
 
 
 @dataclass
@@ -56,23 +59,18 @@ class HumanAwareArm:
         self.field = field or PotentialFieldParams(critical_m=self.human.critical_m,
                                                    influence_m=self.human.activation_m - self.human.critical_m)
         self.velocity = HumanVelocityEstimator()
+        self.clock_s = 0.0
+        """Time stepped so far [s] (the yield decision's clock)."""
+        self.yield_until_s = -np.inf
+        """Until then the anticipative arm yields: it takes no command and only gives way."""
 
     @property
     def state(self):
         return self.teleop.state
 
-    def set_human(self, human: HumanCapsules | None, *legacy) -> None:
+    def set_human(self, human: HumanCapsules | None) -> None:
         """The human now (robot base frame); None or an absent human clears it. Without
-        end-point velocities, they are estimated here (``HumanVelocityEstimator``).
-
-        ``set_human(t_s, p0, p1, radius, names)`` (the former signature) is still accepted for
-        callers not yet ported; it builds the ``HumanCapsules``.
-        """
-        if legacy:
-            p0, p1, radius, *names = legacy
-            radius = np.asarray(radius, dtype=float).reshape(-1)
-            names = tuple(names[0]) if names and len(names[0]) else tuple(f"human {i}" for i in range(radius.size))
-            human = HumanCapsules(p0, p1, radius, names, t_s=float(human))
+        end-point velocities, they are estimated here (``HumanVelocityEstimator``)."""
         if human is not None and human.present and human.v0_b_m_s is None:
             human = self.velocity.update(human)
         elif human is None or not human.present:
@@ -105,9 +103,25 @@ class HumanAwareArm:
                         v = slide(v, rows.normals, rows.bounds)
                     except ValueError:
                         v = np.zeros(3)
-            report = self.teleop.step(v, dt_s, controller)
+            yielding = controller == "anticipative" and self.clock_s < self.yield_until_s
+            report = self.teleop.step(np.zeros(3) if yielding else v, dt_s, controller)
+            if controller == "anticipative":
+                report = self._yield_decision(report, yielding)
+        self.clock_s += dt_s
         d, pr, ph = self.human.minimum(state)
         return HumanStep(report, d, pr, ph)
+
+    def _yield_decision(self, report: StepReport, yielding: bool) -> StepReport:
+        """When contradicting retreats leave the arm no motion, it *decides* to yield for
+        ``YIELD_DWELL_S`` (zero command: it only gives way), instead of stopping and going
+        at every step while the human stays; the report says so."""
+        blocked = report.reason.startswith("retreats contradict") and np.linalg.norm(report.v_commanded_m_s) < 1e-3
+        if blocked:
+            self.yield_until_s = self.clock_s + YIELD_DWELL_S
+        if blocked or yielding:
+            reason = "yielding: " + (report.reason or "the retreats contradicted each other")
+            return dataclasses.replace(report, stopped=True, reason=reason)
+        return report
 
     def _reactive_step(self, v_att: np.ndarray, dt_s: float, ssm: bool) -> StepReport:
         state = self.state

@@ -97,6 +97,7 @@ class HumanAwareTeleop:
     # ---- Teleoperated -----------------------------------------------------------------------
     def reset(self) -> None:
         self.arm.teleop.reset()
+        self.arm.yield_until_s = -np.inf
         self.p_hold_m = None
 
     def _hold(self, v_desired_m_s: np.ndarray) -> np.ndarray:
