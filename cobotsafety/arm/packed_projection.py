@@ -119,8 +119,9 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - compiled
     """``(projection.relax(v, N, b, soft, floors), violation (m,), status)``: the same two stages
-    (least-squares violation of the soft rows, then ``slide`` with their bounds lowered);
-    ``floors`` (m,) with -inf for none. status 1: the hard rows alone contradict each other."""
+    (least-squares violation of the soft rows, each slack capped at ``b - floor``, then
+    ``slide`` with their bounds lowered) and the same final check; ``floors`` (m,) with -inf for
+    none. status 1: the hard rows contradict each other (or the stages were ill-conditioned)."""
     m, n = N.shape
     violation = np.zeros(m)
     x, status = slide_kernel(v, N, b)
@@ -134,24 +135,23 @@ def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - co
         if soft[i]:
             soft_index[i] = ks
             ks += 1
-    floored = np.empty(m, dtype=np.int64)
-    nf = 0
+    capped = np.empty(m, dtype=np.int64)  # row indices of the soft rows with a floor
+    nc = 0
     for i in range(m):
-        if soft[i] and np.isfinite(floors[i]) and floors[i] < b[i]:
-            floored[nf] = i
-            nf += 1
-    G = np.zeros((m + nf, n + ks))
-    h = np.empty(m + nf)
+        if soft[i] and np.isfinite(floors[i]):
+            capped[nc] = i
+            nc += 1
+    G = np.zeros((m + nc, n + ks))
+    h = np.empty(m + nc)
     for i in range(m):
         for j in range(n):
             G[i, j] = N[i, j] / weight
         if soft[i]:
             G[i, n + soft_index[i]] = 1.0
         h[i] = b[i]
-    for f in range(nf):
-        for j in range(n):
-            G[m + f, j] = N[floored[f], j] / weight
-        h[m + f] = floors[floored[f]]
+    for c in range(nc):
+        G[m + c, n + soft_index[capped[c]]] = -1.0
+        h[m + c] = floors[capped[c]] - b[capped[c]]
     x, status = slide_kernel(np.zeros(n + ks), G, h)
     if status != 0:
         return x[:n], violation, 1
@@ -166,5 +166,12 @@ def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - co
             lowered[i] = b[i] - violation[i]
     x, status = slide_kernel(v, N, lowered)
     if status != 0:
-        return v_least, violation, 0
+        x = v_least
+    # Never a command that breaks a hard row or a floor (an ill-conditioned stage).
+    rates = N @ x
+    for i in range(m):
+        if rates[i] < b[i] - violation[i] - 1e-6 * max(1.0, abs(b[i])):
+            return x, violation, 1
+        if soft[i] and np.isfinite(floors[i]) and rates[i] < floors[i] - 1e-6 * max(1.0, abs(floors[i])):
+            return x, violation, 1
     return x, violation, 0
