@@ -46,6 +46,8 @@ def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.002) ->
         counts["safety_net_steps"] += report.extras["net_scale"] < 1.0
         counts["stopped_steps"] += report.stopped
         joint_before, zone_before = joint_after, zone_after
+    packed = getattr(teleop, "packed", None)
+    counts["fast_path_fallbacks"] = dict(packed.fallbacks) if packed is not None else None
     return counts
 
 

@@ -23,7 +23,8 @@ class RobotState:
             model, self.collision_model, spec = load_robot(robot)
         self.model, self.spec = model, spec
         self.name = spec.name
-        self.data = model.createData()
+        self._data = model.createData()
+        self._data_q: np.ndarray | None = None
         self.ee_frame_id = model.getFrameId(spec.ee_frame)
         # Joints with finite limits (continuous joints have none).
         self.lower = model.lowerPositionLimit.copy()
@@ -71,9 +72,30 @@ class RobotState:
     def nv(self) -> int:
         return self.model.nv
 
+    @property
+    def data(self) -> pin.Data:
+        """pinocchio's data at ``q``, refreshed here when a fast-path step left it behind."""
+        if self._data_q is not None:
+            pin.computeJointJacobians(self.model, self._data, self._data_q)
+            pin.updateFramePlacements(self.model, self._data)
+            self._data_q = None
+        return self._data
+
+    def set_kinematics(self, q: np.ndarray, p_world_ee: np.ndarray, R_world_ee: np.ndarray, J_ee6: np.ndarray,
+                       capsule_p0: np.ndarray, capsule_p1: np.ndarray, capsule_origins: np.ndarray) -> None:
+        """The state at ``q`` as the packed fast path computed it (``cobotsafety.arm.packed``):
+        what ``update()`` sets, without pinocchio; its ``data`` is refreshed when read."""
+        self.q = q
+        self.p_world_ee, self.R_world_ee = p_world_ee, R_world_ee
+        self.J_ee, self.J_ee_angular = J_ee6[:3], J_ee6[3:]
+        if len(self.capsules):
+            self.capsule_p0, self.capsule_p1, self._capsule_origins = capsule_p0, capsule_p1, capsule_origins
+        self._data_q = q
+
     def update(self) -> None:
         """Forward kinematics, joint Jacobians, frame placements: once per step."""
-        model, data = self.model, self.data
+        model, data = self.model, self._data
+        self._data_q = None
         pin.computeJointJacobians(model, data, self.q)
         pin.updateFramePlacements(model, data)
         J = pin.getFrameJacobian(model, data, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)

@@ -55,6 +55,8 @@ CROSSING_TOLERANCE_M = 1e-9
 #: below ``-SECONDARY_RELATIVE_TOLERANCE * |a| |c|`` (rounding of an orthogonal ``a . c`` is not
 #: an approach).
 SECONDARY_RELATIVE_TOLERANCE = 1e-9
+#: A half-space normal shorter than this [m/s per m/s of command] is rounding noise: zeroed.
+NEGLIGIBLE_NORMAL = 1e-10
 
 
 @dataclass(frozen=True)
@@ -149,6 +151,10 @@ def build_halfspaces(state: RobotState, measures: Measures, M: np.ndarray, c: np
                      v_desired: np.ndarray, dt_s: float, params: ArmParams, hard: bool = False) -> HalfSpaces:
     """Half-spaces on the command from the measures and the joint velocity limits."""
     normals = measures.A @ M
+    # A limitation the command cannot move (a joint that does not move the hand, as the panda's
+    # last one) has a normal of rounding noise, which the projection would normalise into a
+    # random direction: it is no half-space on the command (a zero normal).
+    normals[np.linalg.norm(normals, axis=1) < NEGLIGIBLE_NORMAL] = 0.0
     secondary = measures.A @ c
     # Limits that move by themselves (a human): only their approach counts. A receding human
     # earns the arm no approach, which the safety net (human held still over the step) would

@@ -7,6 +7,7 @@ import logging
 import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
+from cobotsafety.arm.packed import PackedArm
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
 from cobotsafety.arm.step import ArmParams, step
@@ -47,14 +48,18 @@ class ArmTeleop:
     """A 3D arm driven by the end-effector's translational velocity [m/s].
 
     ``extra_constraints`` (e.g. human capsules as moving zones) are added to the defaults;
-    ``zones`` replaces the default protection zones.
+    ``zones`` replaces the default protection zones. ``fast`` (default) steps on the packed
+    compiled path (``cobotsafety.arm.packed``, equal to the reference ``arm.step.step``, which
+    ``fast=False`` selects).
     """
 
     dim = 3
 
     def __init__(self, robot: str = DEFAULT_ROBOT, zones: list | None = None,
-                 extra_constraints: list[ArmConstraint] | None = None, params: ArmParams | None = None):
+                 extra_constraints: list[ArmConstraint] | None = None, params: ArmParams | None = None,
+                 fast: bool = True):
         self.state = RobotState(robot)
+        self.packed = PackedArm(self.state) if fast else None
         self.params = params or ArmParams()
         self.zones = zones if zones is not None else default_zones(self.state)
         self.extra_constraints = list(extra_constraints or [])
@@ -97,8 +102,9 @@ class ArmTeleop:
         if v.shape != (3,):
             raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
         before = self.p_base_ee_m
-        info = step(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot,
-                    self.last_command)
+        stepper = self.packed.step if self.packed is not None else step
+        info = stepper(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot,
+                       self.last_command)
         self.last_qdot = info.qdot
         self.last_command = info.v_commanded
         if info.relaxed:

@@ -45,14 +45,16 @@ class HumanStep:
 
 
 class HumanAwareArm:
-    """An arm that knows where the human is. ``set_human(HumanCapsules)`` before every ``step``."""
+    """An arm that knows where the human is. ``set_human(HumanCapsules)`` before every ``step``.
+
+    ``fast=False`` steps on the reference path instead of the packed one (``ArmTeleop``)."""
 
     def __init__(self, robot: str = "panda", zones: list | None = None, params: ArmParams | None = None,
                  human: HumanCapsulesConstraint | None = None, ssm: SsmParams | None = None,
-                 field: PotentialFieldParams | None = None):
+                 field: PotentialFieldParams | None = None, fast: bool = True):
         self.human = human or HumanCapsulesConstraint()
         self.teleop = ArmTeleop(robot, zones=zones if zones is not None else [], extra_constraints=[self.human],
-                                params=params)
+                                params=params, fast=fast)
         self.ssm_params = ssm or SsmParams()
         self.field = field or PotentialFieldParams(critical_m=self.human.critical_m,
                                                    influence_m=self.human.activation_m - self.human.critical_m)

@@ -19,7 +19,7 @@ import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, Measures
 from cobotsafety.arm.robot_state import RobotState
-from cobotsafety.geometry.capsule import capsule_distance
+from cobotsafety.arm.packed_measures import human_pairs
 from cobotsafety.human.body import HumanCapsules
 
 DEFAULT_CRITICAL_M = 0.25
@@ -56,9 +56,13 @@ class HumanCapsulesConstraint(ArmConstraint):
 
     def pairs(self, state: RobotState):
         """Distances (c, k) [m], robot points (c, k, 3), human points (c, k, 3)."""
-        s = self.skip_capsules
-        return capsule_distance(state.capsule_p0[s:, None], state.capsule_p1[s:, None], state.capsule_radius[s:, None],
-                                self.p0[None], self.p1[None], self.radius[None])
+        s = min(self.skip_capsules, len(state.capsule_radius))
+        c, k = len(state.capsule_radius) - s, len(self.radius)
+        # ``capsule_distance`` on the (c, 1) x (1, k) broadcast, without its broadcasting cost.
+        d, p_robot, p_human = human_pairs(*(np.ascontiguousarray(a, dtype=float) for a in (
+            state.capsule_p0, state.capsule_p1, state.capsule_radius)), s,
+            *(np.ascontiguousarray(a, dtype=float) for a in (self.p0, self.p1, self.radius)))
+        return d.reshape(c, k), p_robot.reshape(c, k, 3), p_human.reshape(c, k, 3)
 
     def minimum(self, state: RobotState) -> tuple[float, np.ndarray, np.ndarray]:
         """Minimum human-robot distance [m] and its closest points (robot, human)."""

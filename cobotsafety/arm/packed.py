@@ -1,0 +1,328 @@
+"""The packed fast path of the 3D arm step: flat arrays once, one compiled call per step.
+
+``cobotsafety.arm.step.step`` (with the constraint classes and ``slide``) is the readable spec;
+``PackedArm.step`` computes the same step: the robot (joint placements, axes, limits, capsule
+attachments) is packed when the ``PackedArm`` is made, the constraints when their list changes
+(``pack``; the caller's cache key decides), the human's capsules are read from the
+``HumanCapsulesConstraint`` every step (``set_human`` replaces its arrays). One numba call
+(``packed_kernel.packed_step``) then does the kinematics, the mapping, every measure row, the
+half-spaces, the projection, the integration and the safety net's re-check. Names are made for
+the binding rows only (the step info's half-space names are built when read).
+
+What it does not handle goes to the reference ``step``, counted in ``fallbacks``: a box zone
+touched or penetrated, a step the safety net would bisect, the ``reactive`` and ``off``
+methods, and constraint types it does not know. ``tests/test_arm_packed.py`` holds the two
+equal on random states of every robot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
+from cobotsafety.arm.packed_kernel import (METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION,
+                                           STATUS_DONE, packed_step)
+from cobotsafety.arm.packed_kinematics import JOINT_CODES, joint_axis_local
+from cobotsafety.arm.packed_measures import BOX, CAPSULE, HALFSPACE, HUMAN, JOINT, REACH, TABLE
+from cobotsafety.arm.robot_state import RobotState
+from cobotsafety.arm.step import ArmParams, ArmStepInfo, step, task_axes
+from cobotsafety.arm.zones import BoxZone, CapsuleZone, HalfSpaceZone
+from cobotsafety.constraint import HalfSpaces
+from cobotsafety.control.human_constraint import HumanCapsulesConstraint
+
+logger = logging.getLogger(__name__)
+
+_REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict"}
+_EMPTY, _EMPTY3 = np.zeros(0), np.zeros((0, 3))
+_METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
+
+
+def params_vector(params: ArmParams) -> np.ndarray:
+    """The ``ArmParams`` fields the kernel reads, in its order."""
+    return np.array([params.max_speed_m_s, params.damping_width_m, params.damping_width_rad, params.activation_m,
+                     params.w_threshold, params.damping_max, params.orientation_gain_per_s,
+                     params.centering_gain_per_s, params.velocity_limit_scale, params.buffer_m, params.buffer_rad,
+                     params.recovery_gain_per_s, params.max_accel_m_s2], dtype=float)
+
+
+@dataclass(frozen=True)
+class ConstraintPack:
+    """The constraints as flat arrays (``packed_measures`` says what each kind holds)."""
+
+    constraints_list: list
+    constraints: tuple
+    kinds: np.ndarray
+    reals: np.ndarray
+    ints: np.ndarray
+    before_start: np.ndarray
+    max_rows: int
+    humans: tuple
+
+
+class _RowNames(Sequence):
+    """The names of packed half-space rows, each made when read."""
+
+    def __init__(self, namer, tags: np.ndarray):
+        self._namer, self._tags = namer, tags
+
+    def __len__(self) -> int:
+        return len(self._tags)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return tuple(self[j] for j in range(*i.indices(len(self))))
+        return self._namer(self._tags[i])
+
+    def __eq__(self, other) -> bool:
+        return tuple(self) == tuple(other)
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
+class PackedArm:
+    """The robot of ``state`` packed once; ``step`` is ``arm.step.step`` on the fast path."""
+
+    def __init__(self, state: RobotState):
+        model = state.model
+        nj = model.njoints
+        self.supported = all(model.joints[j].shortname() in JOINT_CODES for j in range(1, nj))
+        self.fallbacks: Counter = Counter()
+        """Steps handed to the reference ``step``, by reason (rare geometry, unknown
+        constraints, other methods)."""
+        self.steps = 0
+        if not self.supported:
+            return
+        self.jtype = np.array([0] + [JOINT_CODES[model.joints[j].shortname()] for j in range(1, nj)], dtype=np.int64)
+        self.axes = np.array([(0.0, 0.0, 1.0)] + [joint_axis_local(model.joints[j]) for j in range(1, nj)])
+        self.parent = np.array([model.parents[j] for j in range(nj)], dtype=np.int64)
+        self.idx_q = np.array([model.joints[j].idx_q if j else 0 for j in range(nj)], dtype=np.int64)
+        self.idx_v = np.array([model.joints[j].idx_v if j else 0 for j in range(nj)], dtype=np.int64)
+        self.placement_R = np.array([model.jointPlacements[j].rotation for j in range(nj)])
+        self.placement_t = np.array([model.jointPlacements[j].translation for j in range(nj)])
+        self.support = np.zeros((nj, nj), dtype=np.bool_)
+        for k in range(1, nj):
+            i = k
+            while i > 0:
+                self.support[k, i] = True
+                i = model.parents[i]
+        frame = model.frames[state.ee_frame_id]
+        self.robot_int = np.array([model.nv, frame.parentJoint], dtype=np.int64)
+        self.ee_R = np.ascontiguousarray(frame.placement.rotation)
+        self.ee_t = np.ascontiguousarray(frame.placement.translation)
+        self.lower, self.upper = state.lower.copy(), state.upper.copy()
+        self.limited = np.ascontiguousarray(state.limited_v, dtype=np.int64)
+        self.vlim = np.ascontiguousarray(model.velocityLimit, dtype=float)
+        self.k = len(task_axes(state))
+        self._state = state
+        self._pack: ConstraintPack | None = None
+        self._params: tuple | None = None
+        self._layout: tuple | None = None
+        self._names: tuple | None = None
+        self._pack_capsules()
+
+    def _pack_capsules(self) -> None:
+        """The robot's capsule attachments (again after ``RobotState.use_capsules``)."""
+        state = self._state
+        self._capsules = state.capsules
+        self.cap_joint = np.array(state.capsule_joint_ids, dtype=np.int64)
+        self.cap_p0l = np.ascontiguousarray(state.capsule_p0_local, dtype=float)
+        self.cap_p1l = np.ascontiguousarray(state.capsule_p1_local, dtype=float)
+        self.radius = np.ascontiguousarray(state.capsule_radius, dtype=float)
+        self._pack = None
+
+    def packed(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
+        """``pack(constraints)``, made again only when the list object or the capsules change."""
+        if self._state.capsules is not self._capsules:
+            self._pack_capsules()
+        if self._pack is None or self._pack.constraints_list is not constraints:
+            self._pack = self.pack(constraints)
+        return self._pack
+
+    # ---- packing ------------------------------------------------------------------------------
+    def pack(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
+        """Flat arrays of ``constraints`` (None if one of them is of a kind the kernel lacks)."""
+        state = self._state
+        n_caps = len(state.capsules)
+        kinds, reals, ints, sizes, rows, humans = [], [], [], [], 0, []
+        for con in constraints:
+            real = np.zeros(12)
+            skip = 0
+            if type(con) is JointPositionLimits:
+                kind, size = JOINT, 2 * len(self.limited)
+            elif type(con) is ReachLimits:
+                kind, size = REACH, 2
+                real[0:3], real[3], real[4] = con.shoulder, con.inner_m, con.outer_m
+            elif type(con) is TablePlane:
+                kind, skip = TABLE, con.skip_capsules
+                real[0] = con.height_m
+                size = n_caps - skip
+            elif type(con) is ZoneConstraint:
+                zone, skip = con.zone, con.skip_capsules
+                size = n_caps - skip
+                if type(zone) is BoxZone:
+                    kind = BOX
+                    centre, sphere_r = zone.bounding_sphere()
+                    real[0:3], real[3:6], real[6] = centre, zone.half_size, sphere_r
+                elif isinstance(zone, CapsuleZone) and hasattr(zone, "p0") and type(zone).capsule_distances is CapsuleZone.capsule_distances:
+                    kind = CAPSULE
+                    real[0:3], real[3:6], real[6] = zone.p0, zone.p1, zone.radius_m
+                elif type(zone) is HalfSpaceZone:
+                    kind = HALFSPACE
+                    n = np.asarray(zone.normal, dtype=float)
+                    real[0:3], real[3:6] = zone.point, n / np.linalg.norm(n)
+                else:
+                    return None
+            elif type(con) is HumanCapsulesConstraint:
+                kind, skip = HUMAN, con.skip_capsules
+                real[0], real[1] = con.critical_m, con.activation_m
+                humans.append(con)
+                size = 0  # sized per step (the human's capsule count changes)
+            else:
+                return None
+            if skip > n_caps:
+                return None
+            kinds.append(kind)
+            reals.append(real)
+            ints.append([skip, 0, 0])
+            sizes.append(size)
+        return ConstraintPack(constraints, tuple(constraints), np.array(kinds, dtype=np.int64), np.array(reals).reshape(-1, 12),
+                              np.array(ints, dtype=np.int64).reshape(-1, 3), np.array(sizes, dtype=np.int64),
+                              0, tuple(humans))
+
+    def _human_arrays(self, pack: ConstraintPack):
+        """The human capsules of every human constraint, concatenated, and the layout: ints
+        (per-constraint human ranges), before_start (offsets of each constraint's distances),
+        the row bound. The layout is remade only when a human's capsule count changes."""
+        counts = tuple(len(con.radius) for con in pack.humans)
+        if self._layout is None or self._layout[0] is not pack or self._layout[1] != counts:
+            ints, sizes = pack.ints.copy(), pack.before_start.copy()
+            first, h = 0, 0
+            n_caps = len(self._state.capsules)
+            for i, kind in enumerate(pack.kinds):
+                if kind == HUMAN:
+                    ints[i, 1], ints[i, 2] = first, counts[h]
+                    sizes[i] = (n_caps - ints[i, 0]) * counts[h]
+                    first += counts[h]
+                    h += 1
+            before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
+            np.cumsum(sizes, out=before_start[1:])
+            max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
+            self._layout = (pack, counts, (ints, before_start, int(before_start[-1]), max_rows))
+        if not pack.humans:
+            arrays = (_EMPTY3, _EMPTY3, _EMPTY, _EMPTY3, _EMPTY3)
+        elif len(pack.humans) == 1:
+            con = pack.humans[0]
+            arrays = (con.p0, con.p1, con.radius, con.v0, con.v1)
+        else:
+            arrays = tuple(np.concatenate([getattr(con, a) for con in pack.humans])
+                           for a in ("p0", "p1", "radius", "v0", "v1"))
+        return (*self._layout[2], *(np.ascontiguousarray(a, dtype=float) for a in arrays))
+
+    # ---- names --------------------------------------------------------------------------------
+    def _namer(self, pack: ConstraintPack):
+        """The row-name function of ``pack`` (made once per pack)."""
+        if self._names is not None and self._names[0] is pack:
+            return self._names[1]
+        name = self._make_namer(pack)
+        self._names = (pack, name)
+        return name
+
+    def _make_namer(self, pack: ConstraintPack):
+        state = self._state
+        nv, k = state.nv, self.k
+        axes = "xyz"[:k]
+        vel_names = (tuple(f"velocity {i}" for i in range(2 * nv)) + tuple(f"speed +{a}" for a in axes)
+                     + tuple(f"speed -{a}" for a in axes))
+
+        def name(tag) -> str:
+            con_index, a, b = int(tag[0]), int(tag[1]), int(tag[2])
+            if con_index < 0:
+                return vel_names[a]
+            con, kind = pack.constraints[con_index], pack.kinds[con_index]
+            if kind == JOINT:
+                return f"{state.limited_names[b]} {('lower', 'upper')[a]}"
+            if kind == REACH:
+                return f"{con.name} {('inner', 'extended')[a]}"
+            if kind == HUMAN:
+                return f"human {con.human_names[b]} ({state.capsules[a].name})"
+            return f"{con.name} ({state.capsules[a].name})"
+        return name
+
+    # ---- the step -----------------------------------------------------------------------------
+    def step(self, state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
+             params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
+             last_qdot: np.ndarray | None = None, v_previous: np.ndarray | None = None) -> ArmStepInfo:
+        """``arm.step.step`` on the fast path (same arguments, same result; ``state`` in place).
+
+        The constraints are packed again when ``constraints`` is another list object (keep one
+        list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
+        """
+        args = (state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot, v_previous)
+        self.steps += 1
+        pack = self.packed(constraints) if self.supported else None
+        reason = ("joint type" if not self.supported else "constraint type" if pack is None
+                  else "method" if method not in _METHODS else "another state" if state is not self._state else None)
+        if reason:
+            return self._reference(reason, *args)
+        v = np.asarray(v_desired, dtype=float).reshape(-1)
+        if v.shape != (3,):
+            raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
+        if not dt_s > 0:
+            raise ValueError(f"dt_s must be positive, got {dt_s}")
+        speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        if not math.isfinite(speed):
+            return self._reference("non-finite command", *args)
+        if speed > params.max_speed_m_s:
+            v = v * params.max_speed_m_s / speed
+        k = self.k
+        vk = np.ascontiguousarray(v[:k])
+        previous = np.zeros(k)
+        if v_previous is not None:
+            previous = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
+            previous = np.ascontiguousarray(previous) if math.isfinite(previous.sum()) else np.zeros(k)
+        if self._params is None or self._params[0] is not params:
+            self._params = (params, params_vector(params))
+        ints, before_start, n_before, max_rows, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
+        with_orientation = R_world_ee_ref is not None and state.name != "planar"
+        R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
+        try:
+            result = packed_step(
+                np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
+                _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
+                self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
+                self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
+                float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1,
+                hr, hv0, hv1, self._params[1])
+        except np.linalg.LinAlgError:  # an active set on dependent rows: the reference says why
+            return self._reference("singular active set", *args)
+        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, violation, net_scale, p_ee, R_ee, J6, p0, p1,
+         origins) = result
+        if status != STATUS_DONE:
+            return self._reference(_REASONS[status], *args)
+        state.set_kinematics(q_next, p_ee, R_ee, J6, p0, p1, origins)
+        namer = self._namer(pack)
+        names = tuple(namer(t) for t in tags[binding])
+        command_full = np.zeros(3)
+        command_full[:k] = command
+        relaxed = violation.size > 0 and violation.max() > 0.0
+        reason = ""
+        if relaxed:
+            worst = int(np.argmax(violation))
+            reason = (f"retreats contradict: relaxed {int(np.sum(violation > 0))} row(s), "
+                      f"at most {violation[worst]:.3g} m/s ({namer(tags[worst])})")
+        if stopped and method == "anticipative" and not reason:
+            reason = "blocked by " + ", ".join(names) if names else "blocked"
+        return ArmStepInfo(v, command_full, qdot, names, bool(stopped), float(net_scale),
+                           HalfSpaces(normals, bounds, _RowNames(namer, tags)), relaxed, reason)
+
+    def _reference(self, reason: str, *args) -> ArmStepInfo:
+        self.fallbacks[reason] += 1
+        args[0].update()
+        return step(*args)

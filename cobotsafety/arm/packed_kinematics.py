@@ -1,0 +1,184 @@
+"""Compiled kinematics of a serial arm from pinocchio's joint placements (the packed fast path).
+
+Equal to pinocchio (to rounding) for the joint types the supported robots use: revolute about a
+joint axis (``JointModelRX``/``RY``/``RZ``, angle ``q``) and the continuous revolute about z
+(``JointModelRUBZ``, ``q = (cos, sin)``, nq = 2, nv = 1). ``oMi[j] = oMi[parent] *
+placement[j] * M_joint(q)``; the world Jacobian column of joint ``i`` at a point ``p`` is
+``a_i x (p - o_i)`` (translation) and ``a_i`` (rotation), ``a_i`` the joint's axis in the world.
+``integrate`` is ``pin.integrate``; ``log3`` is pinocchio's ``log3`` (same branches).
+Tests compare each against pinocchio (``tests/test_arm_packed.py``).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+JOINT_REVOLUTE, JOINT_RUBZ = 0, 3
+JOINT_CODES = {"JointModelRX": JOINT_REVOLUTE, "JointModelRY": JOINT_REVOLUTE, "JointModelRZ": JOINT_REVOLUTE,
+               "JointModelRevoluteUnaligned": JOINT_REVOLUTE, "JointModelRUBZ": JOINT_RUBZ}
+JOINT_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0),
+              "JointModelRUBZ": (0.0, 0.0, 1.0)}
+
+
+def joint_axis_local(joint) -> tuple[float, float, float]:
+    """The unit axis of a pinocchio revolute joint model in its own frame."""
+    name = joint.shortname()
+    return JOINT_AXES[name] if name in JOINT_AXES else tuple(float(a) for a in joint.extract().axis)
+
+_EPS = float(np.finfo(float).eps)
+_LOG3_PRECISION = _EPS ** (1.0 / 3.0)  # pinocchio's TaylorSeriesExpansion<double>::precision<2>()
+
+
+@numba.njit(cache=True)
+def forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op):  # pragma: no cover - compiled
+    """World placements of every joint: rotations ``oR`` (nj, 3, 3), origins ``op`` (nj, 3), in place."""
+    nj = jtype.shape[0]
+    Rj = np.empty((3, 3))
+    liR = np.empty((3, 3))
+    for r in range(3):
+        op[0, r] = 0.0
+        for col in range(3):
+            oR[0, r, col] = 1.0 if r == col else 0.0
+    for j in range(1, nj):
+        t = jtype[j]
+        iq = idx_q[j]
+        if t == JOINT_RUBZ:
+            c, s = q[iq], q[iq + 1]
+        else:
+            s, c = np.sin(q[iq]), np.cos(q[iq])
+        # Local rotation of the joint about its unit axis (Rodrigues; exact for x, y, z).
+        x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
+        c1 = 1.0 - c
+        Rj[0, 0], Rj[1, 1], Rj[2, 2] = c1 * x * x + c, c1 * y * y + c, c1 * z * z + c
+        Rj[0, 1], Rj[1, 0] = c1 * x * y - s * z, c1 * x * y + s * z
+        Rj[0, 2], Rj[2, 0] = c1 * x * z + s * y, c1 * x * z - s * y
+        Rj[1, 2], Rj[2, 1] = c1 * y * z - s * x, c1 * y * z + s * x
+        pj = parent[j]
+        # liMi = placement * M_joint: rotation placement_R @ Rj, translation placement_t.
+        for r in range(3):
+            for col in range(3):
+                liR[r, col] = placement_R[j, r, 0] * Rj[0, col] + placement_R[j, r, 1] * Rj[1, col] \
+                    + placement_R[j, r, 2] * Rj[2, col]
+        for r in range(3):
+            op[j, r] = op[pj, r] + oR[pj, r, 0] * placement_t[j, 0] + oR[pj, r, 1] * placement_t[j, 1] \
+                + oR[pj, r, 2] * placement_t[j, 2]
+            for col in range(3):
+                oR[j, r, col] = oR[pj, r, 0] * liR[0, col] + oR[pj, r, 1] * liR[1, col] + oR[pj, r, 2] * liR[2, col]
+
+
+@numba.njit(cache=True)
+def attached_point(oR, op, joint: int, p_local, out):  # pragma: no cover - compiled
+    """World position (3,) of a point ``p_local`` fixed in ``joint``'s frame, into ``out``."""
+    for r in range(3):
+        out[r] = op[joint, r] + oR[joint, r, 0] * p_local[0] + oR[joint, r, 1] * p_local[1] + oR[joint, r, 2] * p_local[2]
+
+
+@numba.njit(cache=True)
+def _world_axis(oR, axes, i: int):  # pragma: no cover - compiled
+    x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
+    return (oR[i, 0, 0] * x + oR[i, 0, 1] * y + oR[i, 0, 2] * z, oR[i, 1, 0] * x + oR[i, 1, 1] * y + oR[i, 1, 2] * z,
+            oR[i, 2, 0] * x + oR[i, 2, 1] * y + oR[i, 2, 2] * z)
+
+
+@numba.njit(cache=True)
+def point_jacobian_row(u, p, joint: int, oR, op, axes, idx_v, support, out):  # pragma: no cover - compiled
+    """``out`` (nv,) = ``u @ J_p``: the rate of ``u . p`` for the point ``p`` fixed to ``joint``."""
+    for i in range(out.shape[0]):
+        out[i] = 0.0
+    for i in range(1, axes.shape[0]):
+        if not support[joint, i]:
+            continue
+        ax, ay, az = _world_axis(oR, axes, i)
+        rx, ry, rz = p[0] - op[i, 0], p[1] - op[i, 1], p[2] - op[i, 2]
+        out[idx_v[i]] = u[0] * (ay * rz - az * ry) + u[1] * (az * rx - ax * rz) + u[2] * (ax * ry - ay * rx)
+
+
+@numba.njit(cache=True)
+def frame_jacobian(p, joint: int, oR, op, axes, idx_v, support, J):  # pragma: no cover - compiled
+    """``J`` (6, nv): LOCAL_WORLD_ALIGNED Jacobian of a frame at ``p`` fixed to ``joint``."""
+    J[:, :] = 0.0
+    for i in range(1, axes.shape[0]):
+        if not support[joint, i]:
+            continue
+        ax, ay, az = _world_axis(oR, axes, i)
+        rx, ry, rz = p[0] - op[i, 0], p[1] - op[i, 1], p[2] - op[i, 2]
+        v = idx_v[i]
+        J[0, v] = ay * rz - az * ry
+        J[1, v] = az * rx - ax * rz
+        J[2, v] = ax * ry - ay * rx
+        J[3, v] = ax
+        J[4, v] = ay
+        J[5, v] = az
+
+
+@numba.njit(cache=True)
+def integrate(q, v, jtype, idx_q, idx_v, out):  # pragma: no cover - compiled
+    """``pin.integrate(model, q, v)`` into ``out`` (RUBZ: rotate (cos, sin), first-order renormalise)."""
+    for j in range(1, jtype.shape[0]):
+        iq, iv = idx_q[j], idx_v[j]
+        if jtype[j] == JOINT_RUBZ:
+            ca, sa = q[iq], q[iq + 1]
+            so, co = np.sin(v[iv]), np.cos(v[iv])
+            c1 = co * ca - so * sa
+            s1 = so * ca + co * sa
+            norm2 = c1 * c1 + s1 * s1
+            f = (3.0 - norm2) / 2.0
+            out[iq], out[iq + 1] = c1 * f, s1 * f
+        else:
+            out[iq] = q[iq] + v[iv]
+
+
+@numba.njit(cache=True)
+def _theta_axis(i0: int, val: float, R):  # pragma: no cover - compiled
+    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
+    s = np.sqrt(val + _EPS + _EPS * _EPS) * (1.0 if R[i2, i1] >= R[i1, i2] else -1.0)
+    axis = np.zeros(3)
+    axis[i0] = s / 2.0
+    axis[i1] = 1.0 / (2.0 * s) * (R[i1, i0] + R[i0, i1])
+    axis[i2] = 1.0 / (2.0 * s) * (R[i2, i0] + R[i0, i2])
+    w = 1.0 / (2.0 * s) * (R[i2, i1] - R[i1, i2])
+    norm = np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    return 2.0 * np.arctan2(norm, w), axis / norm
+
+
+@numba.njit(cache=True)
+def log3(R_in):  # pragma: no cover - compiled
+    """pinocchio's ``log3`` (renormalised rotation, Taylor branch near 0, axis branch near pi)."""
+    R = np.empty((3, 3))
+    n0 = np.sqrt(R_in[0, 0] ** 2 + R_in[1, 0] ** 2 + R_in[2, 0] ** 2)
+    n1 = np.sqrt(R_in[0, 1] ** 2 + R_in[1, 1] ** 2 + R_in[2, 1] ** 2)
+    for r in range(3):
+        R[r, 0] = R_in[r, 0] / n0
+        R[r, 1] = R_in[r, 1] / n1
+    R[0, 2] = R[1, 0] * R[2, 1] - R[2, 0] * R[1, 1]
+    R[1, 2] = R[2, 0] * R[0, 1] - R[0, 0] * R[2, 1]
+    R[2, 2] = R[0, 0] * R[1, 1] - R[1, 0] * R[0, 1]
+    R[0, 0] = R[1, 1] * R[2, 2] - R[2, 1] * R[1, 2]
+    R[1, 0] = R[2, 1] * R[0, 2] - R[0, 1] * R[2, 2]
+    R[2, 0] = R[0, 1] * R[1, 2] - R[1, 1] * R[0, 2]
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    cos_value = (tr - 1.0) / 2.0
+    prec = _LOG3_PRECISION
+    res = np.empty(3)
+    if cos_value >= -1.0 + prec:
+        acos_expansion = np.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+        if tr <= 3.0 - prec:
+            theta = np.arccos(cos_value) if tr >= -1.0 + prec else np.pi - acos_expansion
+        else:
+            theta = acos_expansion
+        a0, a1, a2 = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+        # pinocchio's unSkew: 0.5 * (R - R^T) entries.
+        a0, a1, a2 = 0.5 * a0, 0.5 * a1, 0.5 * a2
+        n2 = a0 * a0 + a1 * a1 + a2 * a2
+        t = theta / np.sin(theta) if theta >= prec else 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
+        res[0], res[1], res[2] = t * a0, t * a1, t * a2
+        return res
+    v0 = 2.0 * R[0, 0] - tr + 1.0
+    v1 = 2.0 * R[1, 1] - tr + 1.0
+    v2 = 2.0 * R[2, 2] - tr + 1.0
+    if v0 >= v1:
+        theta, axis = _theta_axis(0, v0, R) if v0 >= v2 else _theta_axis(2, v2, R)
+    else:
+        theta, axis = _theta_axis(1, v1, R) if v1 >= v2 else _theta_axis(2, v2, R)
+    return theta * axis
