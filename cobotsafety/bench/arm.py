@@ -50,7 +50,7 @@ def _human_teleop(robot: str):
     """A ``HumanAwareTeleop`` with 5 capsules (torso, arms, legs) beside its arm, closing in."""
     import numpy as np
 
-    from cobotsafety.control.teleop import HumanAwareTeleop
+    from cobotsafety.control.human_aware import HumanAwareTeleop
     from cobotsafety.human.body import HumanCapsules
 
     teleop = HumanAwareTeleop(robot)
