@@ -2,20 +2,22 @@
 
 Per scan (``update(t_s, legs_xy_m)``):
 
-1. **Pairing** (``pair_legs``): two legs closer than ``leg_pair_distance_m`` are one person
-   (closest pairs first); a leg left alone is a person too (the other leg hidden, or both legs
-   seen as one cluster). The person's measured position is the mean of its legs (paper 2,
-   eq. 4).
-2. **Association**: every live track is predicted to ``t_s`` by its constant-velocity Kalman
-   filter (``cobotsafety.estimation.constant_velocity``); the cost of giving measurement j to
-   track i is their squared Mahalanobis distance, pairs beyond the gate (``gate_chi2``, a
-   chi-square quantile with 2 degrees of freedom) are forbidden, and
-   ``scipy.optimize.linear_sum_assignment`` picks the cheapest one-to-one assignment.
-3. **Correction**: assigned tracks take their measurement; the others are only predicted.
-4. **Deaths**: a track not seen for ``delete_after_s`` (``tentative_delete_after_s`` while
+1. **Legs to tracks**: every live track is predicted to ``t_s`` by its constant-velocity Kalman
+   filter (``cobotsafety.estimation.constant_velocity``) and offers two slots, one per leg. The
+   cost of leg j in a slot of track i is their squared Mahalanobis distance (the track's
+   position variance plus the measurement noise plus the spread of a leg around its torso);
+   slots beyond the gate (``gate_chi2``, a chi-square quantile with 2 degrees of freedom) are
+   forbidden, and ``scipy.optimize.linear_sum_assignment`` picks the cheapest one-to-one
+   assignment. Associating legs, not ready-made pairs, keeps two people apart when they pass
+   close by (a blind pairing would pair one leg of each).
+2. **Correction**: a track with legs takes their mean as its measured torso (paper 2, eq. 4;
+   a lone leg when the other is hidden or both are seen as one cluster); the others are only
+   predicted.
+3. **Deaths**: a track not seen for ``delete_after_s`` (``tentative_delete_after_s`` while
    still tentative) is dropped.
-5. **Births**: every measurement left unassigned starts a tentative track; it is confirmed after
-   ``confirm_after_hits`` measurements.
+4. **Births** (``pair_legs``): the legs left over are paired, closest first, when closer than
+   ``leg_pair_distance_m``, a leg left alone being a person too; each starts a tentative track,
+   confirmed after ``confirm_after_hits`` measurements.
 
 The filter's velocity is a model-based estimate (no finite differences of noisy positions);
 between sightings a track coasts at its last velocity, and ``time_since_seen_s`` says for how
@@ -40,6 +42,8 @@ class PersonTrackerParams:
     """Two legs closer than this are one person [m]."""
     gate_chi2: float = 13.8
     """Association gate on the squared Mahalanobis distance (chi-square, 2 dof, 99.9 %)."""
+    leg_spread_std_m: float = 0.15
+    """Standard deviation of a leg around its torso while walking [m] (hips, stride)."""
     confirm_after_hits: int = 3
     """A tentative track is confirmed after this many measurements (its birth included)."""
     delete_after_s: float = 1.0
@@ -51,7 +55,7 @@ class PersonTrackerParams:
     """Kalman noise of a person's torso (the mean of its legs jitters by a few cm as they swing)."""
 
     def __post_init__(self):
-        for name in ("leg_pair_distance_m", "gate_chi2", "delete_after_s", "tentative_delete_after_s"):
+        for name in ("leg_pair_distance_m", "gate_chi2", "leg_spread_std_m", "delete_after_s", "tentative_delete_after_s"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"PersonTrackerParams.{name} must be finite and > 0, got {value}")
@@ -140,29 +144,56 @@ class PersonTracker:
         if not np.isfinite(legs).all():
             raise ValueError("PersonTracker.update: legs_xy_m must be finite")
         self._t_s = t_s
-        groups = pair_legs(legs, self.params.leg_pair_distance_m)
-        measured = np.array([legs[g].mean(axis=0) for g in groups]).reshape(-1, 2)
         n = self._ids.size
-        assigned_group = np.full(n, -1)
-        if n and measured.shape[0]:
-            cost = self._filter.mahalanobis2(t_s, measured)
-            allowed = cost <= self.params.gate_chi2
-            if allowed.any():
-                rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e6 * self.params.gate_chi2))
-                ok = allowed[rows, cols]
-                assigned_group[rows[ok]] = cols[ok]
+        legs_of_track = self._assign_legs(t_s, legs) if n else []
+        taken = np.zeros(legs.shape[0], dtype=bool)
+        for group in legs_of_track:
+            taken[group] = True
+        free = np.flatnonzero(~taken)
+        new_groups = [free[g] for g in pair_legs(legs[free], self.params.leg_pair_distance_m)]
         if n:
-            seen = assigned_group >= 0
+            seen = np.array([g.size > 0 for g in legs_of_track])
             z = np.full((n, 2), np.nan)
-            z[seen] = measured[assigned_group[seen]]
+            for i in np.flatnonzero(seen):
+                z[i] = legs[legs_of_track[i]].mean(axis=0)
             self._filter.update(t_s, z, mask=seen)
             self._hits[seen] += 1
             self._last_seen_s[seen] = t_s
-            assigned_group = assigned_group[self._drop(t_s)]
-        unassigned = np.setdiff1d(np.arange(measured.shape[0]), assigned_group)
-        self._birth(t_s, measured[unassigned])
-        assigned_group = np.concatenate([assigned_group, unassigned])
-        return self._persons(t_s, legs, groups, assigned_group)
+            keep = self._drop(t_s)
+            legs_of_track = [g for g, k in zip(legs_of_track, keep) if k]
+        self._birth(t_s, np.array([legs[g].mean(axis=0) for g in new_groups]).reshape(-1, 2))
+        return self._persons(t_s, legs, legs_of_track + new_groups)
+
+    def _assign_legs(self, t_s: float, legs: np.ndarray) -> list[np.ndarray]:
+        """Legs (indices into ``legs``) of each live track: 0, 1 or 2 each.
+
+        Each track offers two slots; a leg may fill a slot when its squared Mahalanobis distance
+        to the predicted torso (covariance: the track's position variance, the measurement noise
+        and the leg's spread around the torso) is within the gate; the cheapest one-to-one
+        assignment wins. Two legs of one track farther apart than ``leg_pair_distance_m``
+        are not one person: the one farther from the prediction is released.
+        """
+        n, k = self._ids.size, legs.shape[0]
+        groups = [np.zeros(0, dtype=int) for _ in range(n)]
+        if k == 0:
+            return groups
+        p_pred, covariance = self._filter.predicted(t_s)
+        variance = (covariance[:, 0, 0] + self.params.noise.measurement_std_m ** 2
+                    + self.params.leg_spread_std_m ** 2)
+        cost = np.sum((p_pred[:, None, :] - legs[None]) ** 2, axis=2) / variance[:, None]  # (n, k)
+        allowed = cost <= self.params.gate_chi2
+        if not allowed.any():
+            return groups
+        slots = np.repeat(np.where(allowed, cost, 1e6 * self.params.gate_chi2), 2, axis=0)  # (2n, k)
+        rows, cols = linear_sum_assignment(slots)
+        for row, col in zip(rows.tolist(), cols.tolist()):
+            track = row // 2
+            if allowed[track, col]:
+                groups[track] = np.append(groups[track], col)
+        for track, group in enumerate(groups):
+            if group.size == 2 and np.linalg.norm(legs[group[0]] - legs[group[1]]) > self.params.leg_pair_distance_m:
+                groups[track] = group[[int(np.argmin(cost[track, group]))]]
+        return groups
 
     def _drop(self, t_s: float) -> np.ndarray:
         """Drop the tracks unseen for too long; returns the (n,) mask of those kept."""
@@ -194,8 +225,7 @@ class PersonTracker:
         self._next_id += m
         self.births += m
 
-    def _persons(self, t_s: float, legs: np.ndarray, groups: list[np.ndarray],
-                 assigned_group: np.ndarray) -> list[Person]:
+    def _persons(self, t_s: float, legs: np.ndarray, legs_of_track: list[np.ndarray]) -> list[Person]:
         if self._ids.size == 0:
             return []
         f = self._filter
@@ -205,9 +235,9 @@ class PersonTracker:
                 track_id=int(self._ids[i]),
                 p_xy_m=f.position[i].copy(),
                 v_xy_m_s=f.velocity[i].copy(),
-                leg_xy_m=legs[groups[g]] if g >= 0 else np.zeros((0, 2)),
+                leg_xy_m=legs[group],
                 confirmed=bool(confirmed[i]),
                 time_since_seen_s=float(t_s - self._last_seen_s[i]),
             )
-            for i, g in enumerate(assigned_group.tolist())
+            for i, group in enumerate(legs_of_track)
         ]
