@@ -18,18 +18,21 @@ makes the human vanish at once.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
-from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left
+from cobotsafety.human.capsule_kernel import body_vector
+from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left, fresh_five_capsules
 from cobotsafety.sensors.imu import IMU_NAMES, calibrate
 from cobotsafety.sensors.laser_filters import TimeFilter
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.legs import detect_legs
 from cobotsafety.sensors.person_tracker import Person, PersonTracker, PersonTrackerParams
 from cobotsafety.sensors.scanner_pose import ScannerPose
-from cobotsafety.sensors.timing import QuaternionStream, VectorStream, rotations_at
+from cobotsafety.sensors.timing import QuaternionStream, VectorStream, quaternion_brackets, rotations_at
 
 #: Paper 2 clips the ranges at 1400 mm.
 MAX_RANGE_M = 1.4
@@ -71,6 +74,8 @@ class HumanTracker:
                 self._r_b_ref[name] = calibrate(q_ref_init, q_b_init)  # eq. 5
                 self.imus[name] = QuaternionStream(name, policy.imu_stale_after_s)
             self._r_b_ref_all = Rotation.concatenate([self._r_b_ref[n] for n in IMU_NAMES])
+            self._r_b_ref_matrices = self._r_b_ref_all.as_matrix()
+            self._body_vector = body_vector(body)
 
     def legs_from_scan(self, scan: LaserScan) -> np.ndarray:
         """Shape (k, 2), the legs in the base frame [m] after the time filter and clipping."""
@@ -121,28 +126,36 @@ class HumanTracker:
     def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None)."""
         # Ages count from the newest sample at or before t_s, even when later ones are visible.
-        scan_age = self.scans.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
-        torso_age = self.torso.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
+        horizon = t_s if until_s is None else min(t_s, until_s)
+        scan_age = self.scans.age_s(t_s, horizon)
+        torso_age = self.torso.age_s(t_s, horizon)
         laser_alive = scan_age <= self.policy.laser_stale_after_s
         if not np.isfinite(torso_age):
             reason = "nobody in range" if laser_alive else "laser silent: human position unknown"
             return HumanCapsules.absent(t_s, reason, stale=not laser_alive)
         xy = self.torso.value_at(t_s, until_s)
         if laser_alive and torso_age > self.policy.laser_stale_after_s:
-            distance = float(np.linalg.norm(xy - [self.scanner.x_m, self.scanner.y_m]))
+            distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
             if could_have_left(distance, torso_age, self.max_range_m, self.policy):
                 return HumanCapsules.absent(t_s, "nobody in range")
+        caps = None
         if not self.imus:
             caps = conservative_capsules(t_s, xy, torso_age, self.body, policy=self.policy)
         else:
-            ages = {name: stream.age_s(t_s, min(t_s, np.inf if until_s is None else until_s)) for name, stream in self.imus.items()}
+            streams = [self.imus[name] for name in IMU_NAMES]
+            ages = {name: stream.age_s(t_s, horizon) for name, stream in zip(IMU_NAMES, streams)}
             if all(np.isfinite(a) for a in ages.values()):
-                r_ref_imu = rotations_at([self.imus[name] for name in IMU_NAMES], t_s, until_s)
-                r_b_imu = self._r_b_ref_all * r_ref_imu  # eq. 6 (base_orientation, batched)
-            else:
-                r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
-            ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}
-            caps = conservative_capsules(t_s, xy, torso_age, self.body, r_b_imu, ages, self.policy)
+                q0, q1, frac = quaternion_brackets(streams, t_s, until_s)
+                # One compiled call for the fresh 5-capsule human (None: stale or not finite).
+                caps = fresh_five_capsules(t_s, xy, torso_age, q0, q1, frac, self._r_b_ref_matrices,
+                                           self._body_vector, ages, self.policy)
+            if caps is None:  # the readable path: a silent IMU -> 1 capsule
+                if all(np.isfinite(a) for a in ages.values()):
+                    r_b_imu = self._r_b_ref_all * rotations_at(streams, t_s, until_s)  # eq. 6, batched
+                else:
+                    r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
+                ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}
+                caps = conservative_capsules(t_s, xy, torso_age, self.body, r_b_imu, ages, self.policy)
         if not laser_alive:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)

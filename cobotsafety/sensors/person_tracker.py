@@ -26,6 +26,7 @@ long, so the human model can grow its margin with it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -144,27 +145,30 @@ class PersonTracker:
         if not np.isfinite(legs).all():
             raise ValueError("PersonTracker.update: legs_xy_m must be finite")
         self._t_s = t_s
-        n = self._ids.size
-        legs_of_track = self._assign_legs(t_s, legs) if n else []
-        taken = np.zeros(legs.shape[0], dtype=bool)
-        for group in legs_of_track:
-            taken[group] = True
-        free = np.flatnonzero(~taken)
-        new_groups = [free[g] for g in pair_legs(legs[free], self.params.leg_pair_distance_m)]
+        n, k = self._ids.size, legs.shape[0]
+        legs_of_track = self._assign_legs(t_s, legs) if n and k else [[] for _ in range(n)]
+        taken = {leg for group in legs_of_track for leg in group}
+        free = [leg for leg in range(k) if leg not in taken]
+        new_groups = []
+        if free:
+            new_groups = [[free[i] for i in group.tolist()]
+                          for group in pair_legs(legs[free], self.params.leg_pair_distance_m)]
         if n:
-            seen = np.array([g.size > 0 for g in legs_of_track])
+            seen = np.array([len(group) > 0 for group in legs_of_track])
             z = np.full((n, 2), np.nan)
-            for i in np.flatnonzero(seen):
-                z[i] = legs[legs_of_track[i]].mean(axis=0)
+            for i, group in enumerate(legs_of_track):
+                if group:
+                    z[i] = legs[group].mean(axis=0)  # eq. 4: the torso between the legs
             self._filter.update(t_s, z, mask=seen)
             self._hits[seen] += 1
             self._last_seen_s[seen] = t_s
             keep = self._drop(t_s)
-            legs_of_track = [g for g, k in zip(legs_of_track, keep) if k]
-        self._birth(t_s, np.array([legs[g].mean(axis=0) for g in new_groups]).reshape(-1, 2))
+            legs_of_track = [g for g, kept in zip(legs_of_track, keep.tolist()) if kept]
+        if new_groups:
+            self._birth(t_s, np.array([legs[g].mean(axis=0) for g in new_groups]))
         return self._persons(t_s, legs, legs_of_track + new_groups)
 
-    def _assign_legs(self, t_s: float, legs: np.ndarray) -> list[np.ndarray]:
+    def _assign_legs(self, t_s: float, legs: np.ndarray) -> list[list[int]]:
         """Legs (indices into ``legs``) of each live track: 0, 1 or 2 each.
 
         Each track offers two slots; a leg may fill a slot when its squared Mahalanobis distance
@@ -173,26 +177,28 @@ class PersonTracker:
         assignment wins. Two legs of one track farther apart than ``leg_pair_distance_m``
         are not one person: the one farther from the prediction is released.
         """
-        n, k = self._ids.size, legs.shape[0]
-        groups = [np.zeros(0, dtype=int) for _ in range(n)]
-        if k == 0:
-            return groups
+        n = self._ids.size
+        groups: list[list[int]] = [[] for _ in range(n)]
         p_pred, covariance = self._filter.predicted(t_s)
         variance = (covariance[:, 0, 0] + self.params.noise.measurement_std_m ** 2
                     + self.params.leg_spread_std_m ** 2)
         cost = np.sum((p_pred[:, None, :] - legs[None]) ** 2, axis=2) / variance[:, None]  # (n, k)
         allowed = cost <= self.params.gate_chi2
-        if not allowed.any():
-            return groups
-        slots = np.repeat(np.where(allowed, cost, 1e6 * self.params.gate_chi2), 2, axis=0)  # (2n, k)
-        rows, cols = linear_sum_assignment(slots)
-        for row, col in zip(rows.tolist(), cols.tolist()):
-            track = row // 2
-            if allowed[track, col]:
-                groups[track] = np.append(groups[track], col)
+        if (allowed.sum(axis=0) <= 1).all() and (allowed.sum(axis=1) <= 2).all():
+            # Unambiguous (each leg fits one track, no track more than two): every allowed
+            # pair is in the optimal assignment, no solver needed.
+            pairs = zip(*np.nonzero(allowed))
+        else:
+            slots = np.repeat(np.where(allowed, cost, 1e6 * self.params.gate_chi2), 2, axis=0)  # (2n, k)
+            rows, cols = linear_sum_assignment(slots)
+            pairs = ((row // 2, col) for row, col in zip(rows, cols) if allowed[row // 2, col])
+        for track, leg in pairs:
+            groups[int(track)].append(int(leg))
         for track, group in enumerate(groups):
-            if group.size == 2 and np.linalg.norm(legs[group[0]] - legs[group[1]]) > self.params.leg_pair_distance_m:
-                groups[track] = group[[int(np.argmin(cost[track, group]))]]
+            if len(group) == 2:
+                (x0, y0), (x1, y1) = legs[group].tolist()
+                if math.hypot(x1 - x0, y1 - y0) > self.params.leg_pair_distance_m:
+                    groups[track] = [group[int(np.argmin(cost[track, group]))]]
         return groups
 
     def _drop(self, t_s: float) -> np.ndarray:
@@ -225,7 +231,7 @@ class PersonTracker:
         self._next_id += m
         self.births += m
 
-    def _persons(self, t_s: float, legs: np.ndarray, legs_of_track: list[np.ndarray]) -> list[Person]:
+    def _persons(self, t_s: float, legs: np.ndarray, legs_of_track: list[list[int]]) -> list[Person]:
         if self._ids.size == 0:
             return []
         f = self._filter
@@ -235,7 +241,7 @@ class PersonTracker:
                 track_id=int(self._ids[i]),
                 p_xy_m=f.position[i].copy(),
                 v_xy_m_s=f.velocity[i].copy(),
-                leg_xy_m=legs[group],
+                leg_xy_m=legs[group] if group else np.zeros((0, 2)),
                 confirmed=bool(confirmed[i]),
                 time_since_seen_s=float(t_s - self._last_seen_s[i]),
             )
