@@ -33,6 +33,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from cobotsafety.estimation.constant_velocity import ConstantVelocityKalman, KalmanNoise
+from cobotsafety.sensors.person_kernel import correct_in_place, leg_gate, predict_in_place
 
 
 @dataclass(frozen=True)
@@ -108,10 +109,16 @@ def pair_legs(legs_xy_m: np.ndarray, leg_pair_distance_m: float) -> list[np.ndar
 
 
 class PersonTracker:
-    """Tracks people across scans. Feed it every scan's legs, in time order, even when empty."""
+    """Tracks people across scans. Feed it every scan's legs, in time order, even when empty.
 
-    def __init__(self, params: PersonTrackerParams = PersonTrackerParams()):
+    ``packed`` (default): the filter's predict, gate and correction run as compiled loops on its
+    arrays (``person_kernel``); False runs ``ConstantVelocityKalman``'s own methods (the
+    reference; both give the same tracks).
+    """
+
+    def __init__(self, params: PersonTrackerParams = PersonTrackerParams(), *, packed: bool = True):
         self.params = params
+        self.packed = bool(packed)
         self._filter: ConstantVelocityKalman | None = None
         self._ids = np.zeros(0, dtype=int)
         self._hits = np.zeros(0, dtype=int)
@@ -146,7 +153,9 @@ class PersonTracker:
             raise ValueError("PersonTracker.update: legs_xy_m must be finite")
         self._t_s = t_s
         n, k = self._ids.size, legs.shape[0]
-        legs_of_track = self._assign_legs(t_s, legs) if n and k else [[] for _ in range(n)]
+        if n:
+            self._predict(t_s)  # once: the association and the correction share it
+        legs_of_track = self._assign_legs(legs) if n and k else [[] for _ in range(n)]
         taken = {leg for group in legs_of_track for leg in group}
         free = [leg for leg in range(k) if leg not in taken]
         new_groups = []
@@ -159,7 +168,7 @@ class PersonTracker:
             for i, group in enumerate(legs_of_track):
                 if group:
                     z[i] = legs[group].mean(axis=0)  # eq. 4: the torso between the legs
-            self._filter.update(t_s, z, mask=seen)
+            self._correct(t_s, z, seen)
             self._hits[seen] += 1
             self._last_seen_s[seen] = t_s
             keep = self._drop(t_s)
@@ -168,25 +177,31 @@ class PersonTracker:
             self._birth(t_s, np.array([legs[g].mean(axis=0) for g in new_groups]))
         return self._persons(t_s, legs, legs_of_track + new_groups)
 
-    def _assign_legs(self, t_s: float, legs: np.ndarray) -> list[list[int]]:
+    def _assign_legs(self, legs: np.ndarray) -> list[list[int]]:
         """Legs (indices into ``legs``) of each live track: 0, 1 or 2 each.
 
-        Each track offers two slots; a leg may fill a slot when its squared Mahalanobis distance
-        to the predicted torso (covariance: the track's position variance, the measurement noise
-        and the leg's spread around the torso) is within the gate; the cheapest one-to-one
-        assignment wins. Two legs of one track farther apart than ``leg_pair_distance_m``
+        Each track (already predicted to this scan) offers two slots; a leg may fill a slot when
+        its squared Mahalanobis distance to the predicted torso (covariance: the track's position
+        variance, the measurement noise and the leg's spread around the torso) is within the
+        gate; the cheapest one-to-one assignment wins. Two legs of one track farther apart than ``leg_pair_distance_m``
         are not one person: the one farther from the prediction is released.
         """
-        n = self._ids.size
+        n, k = self._ids.size, legs.shape[0]
         groups: list[list[int]] = [[] for _ in range(n)]
-        p_pred, covariance = self._filter.predicted(t_s)
-        variance = (covariance[:, 0, 0] + self.params.noise.measurement_std_m ** 2
-                    + self.params.leg_spread_std_m ** 2)
-        cost = np.sum((p_pred[:, None, :] - legs[None]) ** 2, axis=2) / variance[:, None]  # (n, k)
-        allowed = cost <= self.params.gate_chi2
-        if (allowed.sum(axis=0) <= 1).all() and (allowed.sum(axis=1) <= 2).all():
-            # Unambiguous (each leg fits one track, no track more than two): every allowed
-            # pair is in the optimal assignment, no solver needed.
+        f, noise = self._filter, self.params.noise
+        extra_variance = noise.measurement_std_m ** 2 + self.params.leg_spread_std_m ** 2
+        if self.packed:
+            cost = np.empty((n, k))
+            unambiguous = leg_gate(f.position, f.covariance, legs, extra_variance, self.params.gate_chi2, cost)
+            allowed = cost <= self.params.gate_chi2
+        else:
+            variance = f.covariance[:, 0, 0] + extra_variance  # position predicted to t_s
+            cost = np.sum((f.position[:, None, :] - legs[None]) ** 2, axis=2) / variance[:, None]  # (n, k)
+            allowed = cost <= self.params.gate_chi2
+            unambiguous = (allowed.sum(axis=0) <= 1).all() and (allowed.sum(axis=1) <= 2).all()
+        if unambiguous:
+            # Each leg fits one track, no track more than two: every allowed pair is in the
+            # optimal assignment, no solver needed.
             pairs = zip(*np.nonzero(allowed))
         else:
             slots = np.repeat(np.where(allowed, cost, 1e6 * self.params.gate_chi2), 2, axis=0)  # (2n, k)
@@ -200,6 +215,22 @@ class PersonTracker:
                 if math.hypot(x1 - x0, y1 - y0) > self.params.leg_pair_distance_m:
                     groups[track] = [group[int(np.argmin(cost[track, group]))]]
         return groups
+
+    def _predict(self, t_s: float) -> None:
+        f = self._filter
+        if not self.packed:
+            f.predict(t_s)
+        elif t_s > f.t_s:
+            predict_in_place(f.position, f.velocity, f.covariance, t_s - f.t_s, self.params.noise.accel_density_m2_s3)
+            f.t_s = t_s
+
+    def _correct(self, t_s: float, z: np.ndarray, seen: np.ndarray) -> None:
+        """Correct the tracks seen (``seen`` (n,) bool) by their measured torsos ``z`` (n, 2)."""
+        if self.packed:  # already predicted to t_s
+            correct_in_place(self._filter.position, self._filter.velocity, self._filter.covariance, z, seen,
+                             self.params.noise.measurement_std_m ** 2)
+        else:
+            self._filter.update(t_s, z, mask=seen)
 
     def _drop(self, t_s: float) -> np.ndarray:
         """Drop the tracks unseen for too long; returns the (n,) mask of those kept."""
