@@ -61,6 +61,9 @@ class PersonTrackerParams:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"PersonTrackerParams.{name} must be finite and > 0, got {value}")
+        if self.tentative_delete_after_s > self.delete_after_s:
+            raise ValueError(f"PersonTrackerParams.tentative_delete_after_s ({self.tentative_delete_after_s}) must "
+                             f"not exceed delete_after_s ({self.delete_after_s})")
         if int(self.confirm_after_hits) != self.confirm_after_hits or self.confirm_after_hits < 1:
             raise ValueError(f"PersonTrackerParams.confirm_after_hits must be an integer >= 1, "
                              f"got {self.confirm_after_hits}")
@@ -106,6 +109,15 @@ def pair_legs(legs_xy_m: np.ndarray, leg_pair_distance_m: float) -> list[np.ndar
                 groups.append(np.array([i, j]))
     groups += [np.array([i]) for i in np.flatnonzero(~used)]
     return groups
+
+
+def _mean_leg(legs_xy_m: np.ndarray, group: list[int]) -> tuple[float, float]:
+    """The mean of one or two legs [m] (plain floats: ``ndarray.mean`` costs more than the sum)."""
+    if len(group) == 1:
+        x, y = legs_xy_m[group[0]].tolist()
+        return x, y
+    (x0, y0), (x1, y1) = legs_xy_m[group].tolist()
+    return (x0 + x1) / 2, (y0 + y1) / 2
 
 
 class PersonTracker:
@@ -167,14 +179,14 @@ class PersonTracker:
             z = np.full((n, 2), np.nan)
             for i, group in enumerate(legs_of_track):
                 if group:
-                    z[i] = legs[group].mean(axis=0)  # eq. 4: the torso between the legs
+                    z[i] = _mean_leg(legs, group)  # eq. 4: the torso between the legs
             self._correct(t_s, z, seen)
             self._hits[seen] += 1
             self._last_seen_s[seen] = t_s
             keep = self._drop(t_s)
             legs_of_track = [g for g, kept in zip(legs_of_track, keep.tolist()) if kept]
         if new_groups:
-            self._birth(t_s, np.array([legs[g].mean(axis=0) for g in new_groups]))
+            self._birth(t_s, np.array([_mean_leg(legs, g) for g in new_groups]))
         return self._persons(t_s, legs, legs_of_track + new_groups)
 
     def _assign_legs(self, legs: np.ndarray) -> list[list[int]]:
@@ -234,11 +246,12 @@ class PersonTracker:
 
     def _drop(self, t_s: float) -> np.ndarray:
         """Drop the tracks unseen for too long; returns the (n,) mask of those kept."""
-        confirmed = self._hits >= self.params.confirm_after_hits
-        timeout = np.where(confirmed, self.params.delete_after_s, self.params.tentative_delete_after_s)
-        keep = (t_s - self._last_seen_s) <= timeout
+        unseen_s = t_s - self._last_seen_s
+        keep = unseen_s <= self.params.tentative_delete_after_s
         if keep.all():
-            return keep
+            return keep  # the common case: every track seen recently
+        confirmed = self._hits >= self.params.confirm_after_hits
+        keep |= confirmed & (unseen_s <= self.params.delete_after_s)
         f = self._filter
         f.position, f.velocity, f.covariance = f.position[keep], f.velocity[keep], f.covariance[keep]
         self._ids, self._hits, self._last_seen_s = self._ids[keep], self._hits[keep], self._last_seen_s[keep]
