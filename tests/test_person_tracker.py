@@ -6,6 +6,8 @@ from collections import defaultdict
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from cobotsafety.sensors.person_tracker import PersonTracker, PersonTrackerParams, pair_legs
 
@@ -255,3 +257,27 @@ def test_packed_tracker_equals_the_reference_filter():
             worst = max(worst, float(np.abs(p.p_xy_m - q.p_xy_m).max()), float(np.abs(p.v_xy_m_s - q.v_xy_m_s).max()))
     assert packed.births == reference.births > 4
     assert worst < 1e-12, worst
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.0, 0.3), st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3)), max_size=6)),
+                min_size=1, max_size=40))
+def test_invariants_on_arbitrary_leg_sequences(scans):
+    """Whatever the legs: ids unique, every leg given to exactly one person, ``time_since_seen``
+    zero when the person has legs this scan, confirmation never revoked, all finite."""
+    tracker, t, confirmed_ids = PersonTracker(), 0.0, set()
+    for dt, legs in scans:
+        t += dt
+        legs = np.array(legs, dtype=float).reshape(-1, 2)
+        persons = tracker.update(t, legs)
+        ids = [p.track_id for p in persons]
+        assert len(ids) == len(set(ids))
+        given_legs = [tuple(leg) for p in persons for leg in p.leg_xy_m.tolist()]
+        assert len(given_legs) == len(legs) and sorted(given_legs) == sorted(map(tuple, legs.tolist()))
+        for p in persons:
+            assert p.time_since_seen_s == 0.0 if len(p.leg_xy_m) else p.time_since_seen_s >= 0.0
+            assert np.isfinite(p.p_xy_m).all() and np.isfinite(p.v_xy_m_s).all()
+            if p.track_id in confirmed_ids:
+                assert p.confirmed
+            if p.confirmed:
+                confirmed_ids.add(p.track_id)

@@ -104,7 +104,7 @@ class HumanTracker:
             return None
         self.persons = self.people.update(t_s, self.legs_from_scan(scan))
         human = self.human_from_people(self.persons)
-        if human is None or human.time_since_seen_s > 0.0:
+        if human is None or len(human.leg_xy_m) == 0:
             return None  # not seen now: the torso stream ages and the model grows
         self.torso.push(t_s, human.p_xy_m)
         self.torso_velocity.push(t_s, human.v_xy_m_s)
