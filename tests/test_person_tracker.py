@@ -217,7 +217,9 @@ def test_tracks_follow_the_labelled_people(shared_data, bag):
 
 def test_people_walking_past_a_stationary_scanner_are_tracked_without_churn(shared_data):
     """demo_stationary_simple_environment.bag (10 Hz, 126 s, unlabelled): tracks persist and
-    births stay rare, so most confirmed person-scans belong to tracks that lived >= 3 s."""
+    confirmed tracks (the only ones the human model sees; a flickering false leg makes a
+    tentative track that dies unconfirmed) are rare, so most confirmed person-scans belong to
+    tracks that lived >= 3 s."""
     from cobotsafety.sensors.legs import detect_legs, estimate_background
     from cobotsafety.sensors.rosbag_io import read_laser_scans
 
@@ -231,7 +233,7 @@ def test_people_walking_past_a_stationary_scanner_are_tracked_without_churn(shar
                 scans_per_track[person.track_id] += 1
     lives = np.array(list(scans_per_track.values()))
     assert lives.sum() > len(scans)  # somebody is in view most of the time
-    assert tracker.births <= 0.1 * len(scans)
+    assert len(lives) <= 0.1 * len(scans)  # confirmed tracks
     assert lives[lives >= 30].sum() >= 0.9 * lives.sum()
 
 
