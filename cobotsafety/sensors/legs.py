@@ -1,5 +1,11 @@
 """Leg detection from one laser scan, and the torso from the legs (paper 2, section 2.1.4).
 
+``detect_legs(..., method="learned")`` (the default) segments the scan into clusters
+(``leg_clusters``), computes their geometric features (``leg_features``) and keeps the clusters
+the bundled random forest (``leg_classifier``, trained by ``train_legs`` on the hand-labelled
+leg_tracker bags) calls legs: each leg is its cluster's centroid (the labels' convention).
+``method="paper"`` is the paper's rule below, kept for the experiments that reproduce it.
+
 The paper mirrors the clipped, filtered range profile and takes its peaks (the range minima)
 as legs, each centred one leg radius behind its minimum (eq. 3); the torso is the midpoint of
 the two legs (eq. 4). Raw peak picking also fires on table legs, wall corners and noise, so a
@@ -24,6 +30,9 @@ import numpy as np
 
 from cobotsafety.sensors.laser_filters import moving_average
 from cobotsafety.sensors.laser_scan import LaserScan
+from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
+from cobotsafety.sensors.leg_clusters import Clusters, segment
+from cobotsafety.sensors.leg_features import cluster_features
 
 #: Leg radius rho_l of eq. 3 [m].
 LEG_RADIUS_M = 0.06
@@ -44,10 +53,64 @@ def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray 
 
 
 def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
-                leg_radius_m: float = LEG_RADIUS_M, jump_m: float = 0.10, min_width_m: float = 0.03,
-                max_width_m: float = 0.40, smoothing_beams: int = 3,
-                background_margin_m: float = 0.10) -> np.ndarray:
-    """Leg centres [m] in the scanner frame, shape (k, 2) (k = 0 when nobody is there).
+                method: str = "learned", **options) -> np.ndarray:
+    """Leg positions [m] in the scanner frame, shape (k, 2) (k = 0 when nobody is there).
+
+    Args:
+        scan: the scan (any beam count and resolution).
+        max_range_m: clipping range (paper: 1.4 m); legs beyond it are not reported.
+        background: optional ranges of the empty scene, same beams; static objects are ignored.
+        method: ``"learned"`` (cluster classifier, ``learned_legs``) or ``"paper"``
+            (``paper_legs``); ``options`` go to that function.
+    """
+    if method == "learned":
+        return learned_legs(scan, max_range_m, background, **options)
+    if method == "paper":
+        return paper_legs(scan, max_range_m, background, **options)
+    raise ValueError(f"method must be 'learned' or 'paper', got {method!r}")
+
+
+def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
+                 forest: LegForest | None = None, threshold_probability: float | None = None,
+                 background_margin_m: float = 0.10) -> np.ndarray:
+    """Centroids [m], shape (k, 2), of the clusters the forest calls legs.
+
+    Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
+    counts when its centroid is within ``max_range_m``, its leg probability exceeds
+    ``threshold_probability`` (default: the forest's, chosen by cross-validation, one with and
+    one without a background) and, with a ``background``, most of its returns are in front of
+    it by ``background_margin_m``.
+    ``forest``: default the bundled one.
+    """
+    forest = bundled_forest() if forest is None else forest
+    if threshold_probability is None:
+        threshold = (forest.threshold_probability_no_background if background is None
+                     else forest.threshold_probability)
+    else:
+        threshold = threshold_probability
+    clusters = segment(scan)
+    if clusters.count == 0:
+        return np.zeros((0, 2))
+    centroids = clusters.centroids()
+    near = np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m
+    if background is not None:
+        foreground = foreground_mask(scan, np.inf, background, background_margin_m)[clusters.beams]
+        share = np.add.reduceat(foreground.astype(float), clusters.starts) / (clusters.stops - clusters.starts)
+        near &= share > 0.5
+    if not near.any():
+        return np.zeros((0, 2))
+    keep = np.flatnonzero(near)
+    kept = Clusters(clusters.beams, clusters.x_m, clusters.y_m, clusters.ranges_m,
+                    clusters.starts[keep], clusters.stops[keep])
+    probability = forest.predict(cluster_features(scan, kept))
+    return centroids[keep[probability > threshold]].reshape(-1, 2)
+
+
+def paper_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
+               leg_radius_m: float = LEG_RADIUS_M, jump_m: float = 0.10, min_width_m: float = 0.03,
+               max_width_m: float = 0.40, smoothing_beams: int = 3,
+               background_margin_m: float = 0.10) -> np.ndarray:
+    """Leg centres [m], shape (k, 2), by the paper's rule (module docstring).
 
     Args:
         scan: the scan (any beam count and resolution).
