@@ -4,10 +4,11 @@ Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving 
 eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs
 paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
 is the confirmed person nearest the robot base; while that person's legs are seen, the torso
-stream takes the track's filtered position and velocity (``torso_velocity_at``). Per IMU sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy
-interpolated, IMU orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the
-conservative rules of ``conservative.py``. ``until_s`` hides samples stamped after it (a
-causal replay passes ``until_s = t_s``).
+stream takes the track's filtered position and velocity (``torso_velocity_at``). Per IMU
+sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
+orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the conservative rules
+of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
+``until_s`` hides samples stamped after it (a causal replay passes ``until_s = t_s``).
 
 Absence: a person whose legs are no longer seen (occluded, lost, or gone) keeps the last
 pose with a radius growing with the time since seen (``conservative.py``); only when fresh

@@ -57,7 +57,8 @@ class PersonTrackerParams:
     """Kalman noise of a person's torso (the mean of its legs jitters by a few cm as they swing)."""
 
     def __post_init__(self):
-        for name in ("leg_pair_distance_m", "gate_chi2", "leg_spread_std_m", "delete_after_s", "tentative_delete_after_s"):
+        for name in ("leg_pair_distance_m", "gate_chi2", "leg_spread_std_m", "delete_after_s",
+                     "tentative_delete_after_s"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"PersonTrackerParams.{name} must be finite and > 0, got {value}")
