@@ -50,7 +50,7 @@ class VectorStream:
     def push(self, t_s: float, value) -> bool:
         """Append one sample; returns False (and keeps the stream unchanged) on garbage."""
         # Plain Python floats: numpy's per-call overhead dominated this 4-number check.
-        value = (value if isinstance(value, np.ndarray) else np.asarray(value, dtype=float)).reshape(-1).tolist()
+        value = np.asarray(value, dtype=float).reshape(-1).tolist()
         problem = self._check(value)
         t_s = float(t_s)
         if not problem and not math.isfinite(t_s):
