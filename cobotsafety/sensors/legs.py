@@ -3,7 +3,11 @@
 ``detect_legs(..., method="learned")`` (the default) segments the scan into clusters
 (``leg_clusters``), computes their geometric features (``leg_features``) and keeps the clusters
 the bundled random forest (``leg_classifier``, trained by ``train_legs`` on the hand-labelled
-leg_tracker bags) calls legs: each leg is its cluster's centroid (the labels' convention).
+leg_tracker bags) calls legs. Each leg is placed on its axis as eq. 3 places it: one leg
+radius behind the cluster's nearest (3-beam averaged) return. (The bags' labels are cluster
+centroids, ~pi/4 of a radius in front of the axis; a centroid also drifts backwards with the
+trailing returns that eq. 1's time filter leaves behind a walking leg, the nearest return
+does not.)
 ``method="paper"`` is the paper's rule below, kept for the experiments that reproduce it.
 
 The paper mirrors the clipped, filtered range profile and takes its peaks (the range minima)
@@ -72,8 +76,9 @@ def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarra
 
 def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
                  forest: LegForest | None = None, threshold_probability: float | None = None,
-                 background_margin_m: float = 0.10) -> np.ndarray:
-    """Centroids [m], shape (k, 2), of the clusters the forest calls legs.
+                 background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
+                 smoothing_beams: int = 3) -> np.ndarray:
+    """Leg axes [m], shape (k, 2), of the clusters the forest calls legs (module docstring).
 
     Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
     counts when its centroid is within ``max_range_m``, its leg probability exceeds
@@ -103,7 +108,14 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
     kept = Clusters(clusters.beams, clusters.x_m, clusters.y_m, clusters.ranges_m,
                     clusters.starts[keep], clusters.stops[keep])
     probability = forest.predict(cluster_features(scan, kept))
-    return centroids[keep[probability > threshold]].reshape(-1, 2)
+    legs = []
+    for j in keep[probability > threshold].tolist():
+        beams = clusters.beams[clusters.starts[j]:clusters.stops[j]]
+        smoothed = moving_average(clusters.ranges_m[clusters.starts[j]:clusters.stops[j]], smoothing_beams)
+        k = int(np.argmin(smoothed))
+        theta, rho = scan.angle_min + scan.angle_increment * int(beams[k]), float(smoothed[k]) + leg_radius_m
+        legs.append((rho * math.cos(theta), rho * math.sin(theta)))  # eq. 3
+    return np.array(legs).reshape(-1, 2)
 
 
 def paper_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,

@@ -35,7 +35,7 @@ from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.leg_classifier import LegForest
 from cobotsafety.sensors.leg_clusters import segment
 from cobotsafety.sensors.leg_features import cluster_features
-from cobotsafety.sensors.legs import estimate_background, learned_legs
+from cobotsafety.sensors.legs import estimate_background, learned_legs, torsos_from_legs
 from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "leg_tracker"
@@ -120,8 +120,10 @@ def fit(x: np.ndarray, y: np.ndarray):
 
 
 def score_bag(scans: list[tuple[LaserScan, np.ndarray | None]], detect) -> dict:
-    """Recall within HIT_RADIUS_M of labels within CV_RANGE_M, false detections per scan."""
+    """Counts for recall within HIT_RADIUS_M of labels within CV_RANGE_M, false detections per
+    scan, and the torso errors [m] of one-person scans (as ``evaluate_legs`` scores them)."""
     labelled = found = false = 0
+    torso_errors = []
     for scan, labels in scans:
         legs = detect(scan)
         truth = np.zeros((0, 2)) if labels is None else labels[np.linalg.norm(labels, axis=1) <= CV_RANGE_M]
@@ -132,7 +134,11 @@ def score_bag(scans: list[tuple[LaserScan, np.ndarray | None]], detect) -> dict:
             false += int(np.sum(d.min(axis=1) > HIT_RADIUS_M))
         else:
             false += legs.shape[0]
-    return {"labelled": labelled, "found": found, "false": false, "scans": len(scans)}
+        one_person = truth.shape[0] == 1 or (truth.shape[0] == 2 and np.linalg.norm(truth[0] - truth[1]) < 0.6)
+        torsos = torsos_from_legs(legs)
+        if one_person and torsos.size:
+            torso_errors.append(float(np.min(np.linalg.norm(torsos - truth.mean(axis=0), axis=1))))
+    return {"labelled": labelled, "found": found, "false": false, "scans": len(scans), "torso_errors_m": torso_errors}
 
 
 def print_curves(cv: dict, thresholds: np.ndarray) -> None:
@@ -202,7 +208,9 @@ def main(argv: list[str] | None = None) -> int:
     table = {f"{name} ({setting})": {
         "scans": c["scans"], "labelled": c["labelled"],
         "recall": round(c["found"] / c["labelled"], 3) if c["labelled"] else None,
-        "false_per_scan": round(c["false"] / c["scans"], 3)} for (name, setting), counts in cv.items()
+        "false_per_scan": round(c["false"] / c["scans"], 3),
+        "torso_error_median_m": round(float(np.median(c["torso_errors_m"])), 3) if c["torso_errors_m"] else None}
+        for (name, setting), counts in cv.items()
         for c in [counts[chosen[setting]]]}
     report = {"threshold_probability": forest.threshold_probability,
               "threshold_probability_no_background": forest.threshold_probability_no_background,
@@ -215,9 +223,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"thresholds {forest.threshold_probability} (background), "
               f"{forest.threshold_probability_no_background} (none); {y.size} clusters ({y.sum()} legs), "
               f"{forest.roots.size} trees / {forest.feature.size} nodes -> {args.out}")
-        print("held-out bag (setting) | scans | labelled | recall | false / scan")
+        print("held-out bag (setting) | scans | labelled | recall | false / scan | torso error median [m]")
         for key, row in table.items():
-            print(f"{key} | {row['scans']} | {row['labelled']} | {row['recall']} | {row['false_per_scan']}")
+            print(f"{key} | {row['scans']} | {row['labelled']} | {row['recall']} | {row['false_per_scan']} | "
+                  f"{row['torso_error_median_m']}")
     return 0
 
 
