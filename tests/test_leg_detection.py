@@ -103,3 +103,20 @@ def test_legs_only_come_from_usable_returns(bad, real):
     # A cluster needs 3 usable returns; fewer than 3 real readings can never make a leg.
     if np.count_nonzero(scan.valid) < 3:
         assert legs.shape == (0, 2)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.floats(0.1, 10.0), min_size=3, max_size=60), st.integers(1, 7), st.integers(1, 4))
+def test_nearest_averaged_return_kernel_equals_reference(ranges, smoothing_beams, pieces):
+    from cobotsafety.sensors.legs import _nearest_averaged_returns, nearest_averaged_returns_reference
+
+    ranges = np.array(ranges)
+    cuts = np.linspace(0, ranges.size, pieces + 1).astype(np.int64)
+    starts, stops = cuts[:-1], cuts[1:]
+    ok = stops > starts
+    starts, stops = starts[ok], stops[ok]
+    index, value = _nearest_averaged_returns(ranges, starts, stops, smoothing_beams)
+    index_ref, value_ref = nearest_averaged_returns_reference(ranges, starts, stops, smoothing_beams)
+    np.testing.assert_allclose(value, value_ref, rtol=1e-12, atol=1e-12)
+    # Ties between equal windows may pick either index; the averaged value is what matters.
+    assert np.all((index >= starts) & (index < stops))

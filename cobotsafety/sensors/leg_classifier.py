@@ -122,7 +122,7 @@ class LegForest:
 
     def predict(self, features: np.ndarray) -> np.ndarray:
         """Shape (c,): P(leg) of each row of ``features`` (compiled; equals the reference)."""
-        x = np.ascontiguousarray(np.asarray(features, dtype=np.float32), dtype=np.float64)
+        x = np.ascontiguousarray(features, dtype=np.float32)  # compared as float64, as sklearn does
         return _predict_kernel(x, self.feature, self.threshold, self.left, self.right,
                                self.leaf_probability, self.roots)
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from cobotsafety.sensors.laser_filters import moving_average
@@ -108,14 +109,46 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
     kept = Clusters(clusters.beams, clusters.x_m, clusters.y_m, clusters.ranges_m,
                     clusters.starts[keep], clusters.stops[keep])
     probability = forest.predict(cluster_features(scan, kept))
-    legs = []
-    for j in keep[probability > threshold].tolist():
-        beams = clusters.beams[clusters.starts[j]:clusters.stops[j]]
-        smoothed = moving_average(clusters.ranges_m[clusters.starts[j]:clusters.stops[j]], smoothing_beams)
+    legs = keep[probability > threshold]
+    beam, nearest_m = _nearest_averaged_returns(clusters.ranges_m, clusters.starts[legs], clusters.stops[legs],
+                                                smoothing_beams)
+    theta = scan.angle_min + scan.angle_increment * clusters.beams[beam]
+    rho = nearest_m + leg_radius_m  # eq. 3
+    return np.column_stack([rho * np.cos(theta), rho * np.sin(theta)]).reshape(-1, 2)
+
+
+def nearest_averaged_returns_reference(ranges_m: np.ndarray, starts: np.ndarray, stops: np.ndarray,
+                                       smoothing_beams: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per cluster: the index (into ``ranges_m``) and value [m] of the minimum of its ranges
+    averaged over ``smoothing_beams`` (eq. 2, ``moving_average``). Readable version."""
+    index, value = [], []
+    for start, stop in zip(starts.tolist(), stops.tolist()):
+        smoothed = moving_average(ranges_m[start:stop], min(smoothing_beams, stop - start))
         k = int(np.argmin(smoothed))
-        theta, rho = scan.angle_min + scan.angle_increment * int(beams[k]), float(smoothed[k]) + leg_radius_m
-        legs.append((rho * math.cos(theta), rho * math.sin(theta)))  # eq. 3
-    return np.array(legs).reshape(-1, 2)
+        index.append(start + k)
+        value.append(float(smoothed[k]))
+    return np.array(index, dtype=np.int64), np.array(value, dtype=float)
+
+
+@numba.njit(cache=True)
+def _nearest_averaged_returns(ranges_m, starts, stops, smoothing_beams):
+    """Compiled ``nearest_averaged_returns_reference`` (a centred window, edges repeated)."""
+    index = np.empty(starts.size, dtype=np.int64)
+    value = np.empty(starts.size)
+    for j in range(starts.size):
+        s, e = starts[j], stops[j]
+        size = min(smoothing_beams, e - s)
+        left = size // 2
+        best, best_k = np.inf, s
+        for i in range(s, e):
+            acc = 0.0
+            for w in range(i - left, i - left + size):
+                acc += ranges_m[min(max(w, s), e - 1)]
+            if acc / size < best:
+                best, best_k = acc / size, i
+        index[j] = best_k
+        value[j] = best
+    return index, value
 
 
 def paper_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
