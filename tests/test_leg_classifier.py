@@ -91,3 +91,14 @@ def test_malformed_model_files_are_refused(tmp_path):
              threshold_probability_no_background=0.5)
     with pytest.raises(ValueError, match="trained on features"):
         LegForest.load(tmp_path / "other.npz")
+
+
+def test_training_is_deterministic(real_features):
+    """The training command's recipe (fixed seed) gives the same forest twice."""
+    from cobotsafety.sensors.train_legs import fit
+
+    x, y = real_features
+    a = LegForest.from_sklearn(fit(x, y), 0.5)
+    b = LegForest.from_sklearn(fit(x, y), 0.5)
+    for name in ("feature", "threshold", "left", "right", "leaf_probability", "roots"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
