@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from cobotsafety import LaserScan, detect_legs
 from cobotsafety.sensors.leg_clusters import segment
-from cobotsafety.sensors.legs import learned_legs
+from cobotsafety.sensors.legs import MAX_LEG_WIDTH_M, learned_legs
 
 
 def render(circles, beams=271, fov_deg=270.0, max_range=8.0, noise=0.0, seed=0, walls=()):
@@ -120,3 +120,32 @@ def test_nearest_averaged_return_kernel_equals_reference(ranges, smoothing_beams
     np.testing.assert_allclose(value, value_ref, rtol=1e-12, atol=1e-12)
     # Ties between equal windows may pick either index; the averaged value is what matters.
     assert np.all((index >= starts) & (index < stops))
+
+
+def test_clusters_wider_than_two_legs_are_never_legs():
+    """Even a forest that calls everything a leg (threshold below 0) keeps walls out: a cluster
+    wider than MAX_LEG_WIDTH_M end to end is not a leg; the two legs in front still are."""
+    scan = render([(x, y, 0.06) for x, y in LEGS], beams=811, walls=(2.0,))
+    everything = learned_legs(scan, 6.0, threshold_probability=-1.0)
+    clusters = segment(scan)
+    last = clusters.stops - 1
+    width = np.hypot(clusters.x_m[last] - clusters.x_m[clusters.starts], clusters.y_m[last] - clusters.y_m[clusters.starts])
+    assert np.any(width > MAX_LEG_WIDTH_M) and everything.shape[0] == np.sum(width <= MAX_LEG_WIDTH_M)
+    found = np.linalg.norm(everything[:, None] - LEGS[None], axis=-1).min(axis=0)
+    assert np.all(found < 0.03)
+    wide = learned_legs(scan, 6.0, threshold_probability=-1.0, max_width_m=np.inf)
+    assert wide.shape[0] == clusters.count
+
+
+def test_background_share_counts_each_cluster_own_returns_only():
+    """A cluster in front of the background counts, one on it does not, whatever lies between
+    or after them (dropped 2-return clusters, the rest of the scan)."""
+    inc = math.radians(0.5)
+    # On the background: the 4 m, 3 m and 5 m clusters; in front: the 1 m cluster and the
+    # 2-return piece after the 3 m cluster (dropped: too few returns).
+    ranges = np.r_[np.full(30, 4.0), np.full(8, 1.0), np.full(3, 3.0), [2.5, 2.5], np.full(30, 5.0)]
+    background = np.r_[np.full(30, 4.0), np.full(8, 4.0), np.full(3, 3.0), [4.0, 4.0], np.full(30, 5.0)]
+    scan = LaserScan(-inc * (ranges.size - 1) / 2, inc, 0.02, 20.0, ranges)
+    legs = learned_legs(scan, 6.0, background, threshold_probability=-1.0)
+    assert legs.shape == (1, 2)
+    assert abs(np.hypot(*legs[0]) - (1.0 + 0.06)) < 1e-9  # the 1 m cluster, eq. 3

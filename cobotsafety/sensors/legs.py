@@ -41,6 +41,10 @@ from cobotsafety.sensors.leg_features import cluster_features
 
 #: Leg radius rho_l of eq. 3 [m].
 LEG_RADIUS_M = 0.06
+#: Widest cluster [m] (end to end) the learned detector considers: two legs side by side are
+#: ~0.4 m (the paper's rule: 0.40); the widest labelled leg cluster of the leg_tracker bags is
+#: 0.45 m. Wider clusters (walls, tables) are never legs, whatever the forest says.
+MAX_LEG_WIDTH_M = 0.5
 
 
 def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray | None,
@@ -78,11 +82,12 @@ def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarra
 def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
                  forest: LegForest | None = None, threshold_probability: float | None = None,
                  background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
-                 smoothing_beams: int = 3) -> np.ndarray:
+                 smoothing_beams: int = 3, max_width_m: float = MAX_LEG_WIDTH_M) -> np.ndarray:
     """Leg axes [m], shape (k, 2), of the clusters the forest calls legs (module docstring).
 
     Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
-    counts when its centroid is within ``max_range_m``, its leg probability exceeds
+    counts when its centroid is within ``max_range_m``, it is at most ``max_width_m`` wide
+    (first to last return), its leg probability exceeds
     ``threshold_probability`` (default: the forest's, chosen by cross-validation, one with and
     one without a background) and, with a ``background``, most of its returns are in front of
     it by ``background_margin_m``.
@@ -99,9 +104,13 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
         return np.zeros((0, 2))
     centroids = clusters.centroids()
     near = np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m
+    last = clusters.stops - 1
+    near &= np.hypot(clusters.x_m[last] - clusters.x_m[clusters.starts],
+                     clusters.y_m[last] - clusters.y_m[clusters.starts]) <= max_width_m
     if background is not None:
         foreground = foreground_mask(scan, np.inf, background, background_margin_m)[clusters.beams]
-        share = np.add.reduceat(foreground.astype(float), clusters.starts) / (clusters.stops - clusters.starts)
+        in_front = np.concatenate([[0], np.cumsum(foreground)])  # not reduceat: dropped clusters lie between
+        share = (in_front[clusters.stops] - in_front[clusters.starts]) / (clusters.stops - clusters.starts)
         near &= share > 0.5
     if not near.any():
         return np.zeros((0, 2))
