@@ -39,7 +39,7 @@ def render(circles, wall_y=None, beams=271, fov_deg=270.0, max_range=8.0, noise=
 def test_two_legs_give_two_detections_and_the_torso_between_them():
     legs_true = np.array([[0.9, 0.12], [0.9, -0.12]])
     scan = render([(x, y, LEG_RADIUS_M) for x, y in legs_true], noise=0.003)
-    legs = detect_legs(scan)
+    legs = detect_legs(scan, method="paper")  # eq. 3: the centres, one leg radius behind the minima
     assert legs.shape == (2, 2)
     order = np.argsort(legs[:, 1])[::-1]
     np.testing.assert_allclose(legs[order], legs_true, atol=0.03)
@@ -85,12 +85,12 @@ def test_background_removes_static_objects():
     empty = render([post])
     assert detect_legs(empty).shape == (1, 2)  # without a background it looks like a leg
     scene = render([post, (1.0, 0.4, LEG_RADIUS_M)])
-    legs = detect_legs(scene, background=empty.ranges)
+    legs = detect_legs(scene, background=empty.ranges, method="paper")
     assert legs.shape == (1, 2)
     np.testing.assert_allclose(legs[0], [1.0, 0.4], atol=0.03)
     # People pass through a beam now and then; open space rarely returns.
     background = estimate_background([empty] * 10 + [scene, render([post, (1.2, -0.1, 0.06)])])
-    np.testing.assert_allclose(detect_legs(scene, background=background), legs)
+    np.testing.assert_allclose(detect_legs(scene, background=background, method="paper"), legs)
     with pytest.raises(ValueError, match="background"):
         detect_legs(scene, background=np.ones(3))
 

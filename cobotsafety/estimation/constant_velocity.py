@@ -70,6 +70,8 @@ class ConstantVelocityKalman:
 
     def predict(self, t_s: float) -> None:
         """Advance the state to ``t_s`` [s] (earlier times are held at the current one)."""
+        if float(t_s) <= self.t_s:
+            return  # dt = 0: F = I, Q = 0, nothing changes (an update right after a predict)
         self.position, self.covariance = self.predicted(t_s)
         self.t_s = max(float(t_s), self.t_s)
 

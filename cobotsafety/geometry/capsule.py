@@ -19,6 +19,10 @@ import numpy as np
 
 #: Squared lengths [m^2] below this count as zero-length segments.
 _EPS_LENGTH2 = 1e-24
+#: ``sin^2`` of the angle between the axes below which the 2x2 system of the lines' closest
+#: points counts as ill-conditioned: the clamped solution is then checked against the four
+#: end-point-to-segment candidates (the only other places the minimum can be).
+_ILL_CONDITIONED_SIN2 = 1e-2
 
 
 @dataclass(frozen=True)
@@ -28,6 +32,34 @@ class Capsule:
     p0: np.ndarray
     p1: np.ndarray
     radius_m: float
+
+
+@numba.njit(cache=True, inline="always")
+def _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s, t):  # pragma: no cover - compiled
+    """Squared distance between A(s) and B(t), from ``r = a0 - b0`` and the axes ``d1``, ``d2``."""
+    gx, gy, gz = rx + s * d1x - t * d2x, ry + s * d1y - t * d2y, rz + s * d1z - t * d2z
+    return gx * gx + gy * gy + gz * gz
+
+
+@numba.njit(cache=True)
+def _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f, denom):  # pragma: no cover
+    """Parameters ``(s, t)`` of the closest points of two nearly parallel lines, or (-1, -1).
+
+    Cramer's rule loses ``eps / sin^2`` of ``s``; a few Newton steps along ``d1``'s component
+    normal to ``d2`` (``d1_perp``, accurate to ``eps / sin``) on the small gap vector bring it to
+    rounding: ``s -= d1_perp . gap / |d1_perp|^2``, with ``t`` the optimum for ``s`` each time.
+    """
+    k = b / e
+    px, py, pz = d1x - k * d2x, d1y - k * d2y, d1z - k * d2z
+    p2 = px * px + py * py + pz * pz
+    if not p2 > 0.0 or not denom > 0.0:
+        return -1.0, -1.0  # parallel to rounding: the minimum is on an edge
+    s = (b * f - c * e) / denom
+    for _ in range(3):
+        t = (b * s + f) / e
+        gx, gy, gz = rx + s * d1x - t * d2x, ry + s * d1y - t * d2y, rz + s * d1z - t * d2z
+        s -= (px * gx + py * gy + pz * gz) / p2
+    return s, (b * s + f) / e
 
 
 @numba.njit(cache=True)
@@ -58,6 +90,26 @@ def _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # prag
                 s, t = min(max(-c / a, 0.0), 1.0), 0.0
             elif t > 1.0:
                 s, t = min(max((b - c) / a, 0.0), 1.0), 1.0
+            if denom <= _ILL_CONDITIONED_SIN2 * a * e:
+                # Nearly parallel: rounding in the 2x2 solve can clamp to the wrong end, or
+                # land far along the flat valley of the distance. Its minimum over [0, 1]^2
+                # is at the lines' closest points (when inside) or on an edge, i.e. an end
+                # point of one segment against the other: keep the smallest of the candidates.
+                best = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s, t)
+                s_in, t_in = _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f, denom)
+                if 0.0 <= s_in <= 1.0 and 0.0 <= t_in <= 1.0:
+                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_in, t_in)
+                    if g < best:
+                        best, s, t = g, s_in, t_in
+                for end in (0.0, 1.0):
+                    t_end = min(max((f + end * b) / e, 0.0), 1.0)  # A's end against B
+                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, end, t_end)
+                    if g < best:
+                        best, s, t = g, end, t_end
+                    s_end = min(max((end * b - c) / a, 0.0), 1.0)  # B's end against A
+                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_end, end)
+                    if g < best:
+                        best, s, t = g, s_end, end
         point_a[k, 0], point_a[k, 1], point_a[k, 2] = a0[k, 0] + s * d1x, a0[k, 1] + s * d1y, a0[k, 2] + s * d1z
         point_b[k, 0], point_b[k, 1], point_b[k, 2] = b0[k, 0] + t * d2x, b0[k, 1] + t * d2y, b0[k, 2] + t * d2z
         gx, gy, gz = point_a[k, 0] - point_b[k, 0], point_a[k, 1] - point_b[k, 1], point_a[k, 2] - point_b[k, 2]

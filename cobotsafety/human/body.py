@@ -132,6 +132,19 @@ class HumanCapsules:
         """The same capsules with these end-point velocities (k, 3) [m/s]."""
         return replace(self, v0_b_m_s=v0_b_m_s, v1_b_m_s=v1_b_m_s)
 
+    @classmethod
+    def trusted(cls, p0_b_m: np.ndarray, p1_b_m: np.ndarray, radius_m: np.ndarray, names: tuple[str, ...],
+                t_s: float = 0.0, stale: bool = False, reason: str = "", ages_s: dict | None = None
+                ) -> "HumanCapsules":
+        """Capsules the pipeline built itself, without re-validation: float64 arrays of shapes
+        (k, 3), (k, 3), (k,), finite, radii >= 0, ``names`` a k-tuple. Only for callers that
+        have checked that (``human/capsule_kernel.py`` does, in its kernel)."""
+        caps = object.__new__(cls)
+        for name, value in (("p0_b_m", p0_b_m), ("p1_b_m", p1_b_m), ("radius_m", radius_m), ("names", names),
+                            ("t_s", t_s), ("stale", stale), ("reason", reason), ("ages_s", ages_s or {})):
+            object.__setattr__(caps, name, value)
+        return caps
+
     @property
     def present(self) -> bool:
         """False when no human is in range (zero capsules)."""

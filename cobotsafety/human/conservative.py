@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from cobotsafety.human.body import BodyDimensions, HumanCapsules
+from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions, HumanCapsules
+from cobotsafety.human.capsule_kernel import five_capsules_packed
 from cobotsafety.human.capsules import five_capsules, one_capsule
 
 #: ISO 13855 walking speed K [m/s].
@@ -84,12 +85,42 @@ def conservative_capsules(
         reasons.append(f"IMU {', '.join(silent)} silent for {worst:.2f} s: 1-capsule human")
     else:
         model = five_capsules(xy_b_torso_m, r_b_imu, body, t_s)
-    growth = policy.speed_m_s * torso_age_s
-    if torso_age_s > policy.laser_stale_after_s:
+    growth, laser_stale, laser_reason = laser_margin(torso_age_s, policy)
+    if laser_stale:
         stale = True
-        reasons.append(f"laser: legs not seen for {torso_age_s:.2f} s: last pose held, radius +{growth:.2f} m")
+        reasons.append(laser_reason)
     return HumanCapsules(model.p0_b_m, model.p1_b_m, model.radius_m + growth, model.names, t_s=t_s,
                          stale=stale, reason="; ".join(reasons), ages_s=ages)
+
+
+def laser_margin(torso_age_s: float, policy: StalePolicy = StalePolicy()) -> tuple[float, bool, str]:
+    """``(growth [m], stale, reason)`` for legs last seen ``torso_age_s`` ago (rule 1)."""
+    growth = policy.speed_m_s * torso_age_s
+    if torso_age_s > policy.laser_stale_after_s:
+        return growth, True, f"laser: legs not seen for {torso_age_s:.2f} s: last pose held, radius +{growth:.2f} m"
+    return growth, False, ""
+
+
+def fresh_five_capsules(t_s: float, xy_b_torso_m: np.ndarray, torso_age_s: float, q0_ref_imu: np.ndarray,
+                        q1_ref_imu: np.ndarray, frac: np.ndarray, r_b_ref: np.ndarray, body_vec: np.ndarray,
+                        imu_ages_s: dict[str, float], policy: StalePolicy = StalePolicy()) -> HumanCapsules | None:
+    """``conservative_capsules`` for five fresh IMUs, in one compiled call (``capsule_kernel``).
+
+    The IMUs are given as their bracketing samples (``q0``/``q1`` (5, 4) xyzw, slerp ``frac``
+    (5,)) and calibrations ``r_b_ref`` (5, 3, 3); ``body_vec`` from ``capsule_kernel.body_vector``.
+    Returns None when an IMU is stale or a result is not finite: the caller then takes the
+    readable, validating path.
+    """
+    if not (np.isfinite(torso_age_s) and torso_age_s >= 0):
+        raise ValueError(f"torso_age_s must be finite and >= 0, got {torso_age_s}")
+    if not all(age <= policy.imu_stale_after_s for age in imu_ages_s.values()):
+        return None
+    growth, stale, reason = laser_margin(torso_age_s, policy)
+    p0, p1, radius, finite = five_capsules_packed(xy_b_torso_m, q0_ref_imu, q1_ref_imu, frac, r_b_ref, body_vec, growth)
+    if not finite:
+        return None
+    return HumanCapsules.trusted(p0, p1, radius, CAPSULE_NAMES_5, t_s=t_s, stale=stale, reason=reason,
+                                 ages_s={"laser": float(torso_age_s), **imu_ages_s})
 
 
 def could_have_left(distance_scanner_torso_m: float, torso_age_s: float, max_range_m: float,

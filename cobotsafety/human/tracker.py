@@ -1,30 +1,39 @@
 """``HumanTracker``: the live pipeline from laser scans and IMU samples to human capsules.
 
 Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving average,
-eq. 2-3, background removal) -> ``torsos_from_legs`` (eq. 4) -> ``ScannerPose.to_base``
-(eq. 10). Per IMU sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy
-interpolated, IMU orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the
-conservative rules of ``conservative.py``. ``until_s`` hides samples stamped after it (a
-causal replay passes ``until_s = t_s``).
+eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs
+paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
+is the confirmed person nearest the robot base; while that person's legs are seen, the torso
+stream takes the track's filtered position and velocity (``torso_velocity_at``). Per IMU
+sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
+orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the conservative rules
+of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
+``until_s`` hides samples stamped after it (a causal replay passes ``until_s = t_s``).
 
-Absence: when fresh scans show no legs and the human, last seen ``age`` seconds ago, could have
-walked out of the clipped range since (``could_have_left``), nobody is in range: no capsules.
-Until then the last pose is held with a growing radius.
+Absence: a person whose legs are no longer seen (occluded, lost, or gone) keeps the last
+pose with a radius growing with the time since seen (``conservative.py``); only when fresh
+scans show no legs and the human, last seen ``age`` seconds ago, could have walked out of the
+clipped range since (``could_have_left``), is nobody in range: no capsules. A lost track never
+makes the human vanish at once.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
-from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left
+from cobotsafety.human.capsule_kernel import body_vector
+from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left, fresh_five_capsules
 from cobotsafety.sensors.imu import IMU_NAMES, calibrate
 from cobotsafety.sensors.laser_filters import TimeFilter
 from cobotsafety.sensors.laser_scan import LaserScan
-from cobotsafety.sensors.legs import detect_legs, torsos_from_legs
+from cobotsafety.sensors.legs import detect_legs
+from cobotsafety.sensors.person_tracker import Person, PersonTracker, PersonTrackerParams
 from cobotsafety.sensors.scanner_pose import ScannerPose
-from cobotsafety.sensors.timing import QuaternionStream, VectorStream, rotations_at
+from cobotsafety.sensors.timing import QuaternionStream, VectorStream, quaternion_brackets, rotations_at
 
 #: Paper 2 clips the ranges at 1400 mm.
 MAX_RANGE_M = 1.4
@@ -42,14 +51,19 @@ class HumanTracker:
 
     def __init__(self, body: BodyDimensions, scanner: ScannerPose, imu_calibration: dict | None = None,
                  background: np.ndarray | None = None, policy: StalePolicy = StalePolicy(),
-                 max_range_m: float = MAX_RANGE_M, time_filter_alpha: float = TIME_FILTER_ALPHA):
+                 max_range_m: float = MAX_RANGE_M, time_filter_alpha: float = TIME_FILTER_ALPHA,
+                 people: PersonTrackerParams = PersonTrackerParams()):
         self.body, self.scanner, self.policy = body, scanner, policy
+        self.people = PersonTracker(people)
+        self.persons: list[Person] = []
+        """The people tracked after the newest scan (base frame)."""
         self.max_range_m = max_range_m
         self.background = background
         self._filter = TimeFilter(time_filter_alpha)
         self._last: np.ndarray | None = None
         self.scans = VectorStream("laser", 1, policy.laser_stale_after_s)
         self.torso = VectorStream("torso", 2, policy.laser_stale_after_s)
+        self.torso_velocity = VectorStream("torso_velocity", 2, policy.laser_stale_after_s)
         self.imus: dict[str, QuaternionStream] = {}
         self._r_b_ref: dict[str, Rotation] = {}
         if imu_calibration is not None:
@@ -61,9 +75,11 @@ class HumanTracker:
                 self._r_b_ref[name] = calibrate(q_ref_init, q_b_init)  # eq. 5
                 self.imus[name] = QuaternionStream(name, policy.imu_stale_after_s)
             self._r_b_ref_all = Rotation.concatenate([self._r_b_ref[n] for n in IMU_NAMES])
+            self._r_b_ref_matrices = self._r_b_ref_all.as_matrix()
+            self._body_vector = body_vector(body)
 
-    def torso_from_scan(self, scan: LaserScan) -> np.ndarray | None:
-        """Shape (2,) torso xy in the base frame [m] nearest the robot, or None (no legs)."""
+    def legs_from_scan(self, scan: LaserScan) -> np.ndarray:
+        """Shape (k, 2), the legs in the base frame [m] after the time filter and clipping."""
         # Clip at the monitored range (paper: 1400 mm); a beam without a return this time
         # holds its previous filtered value (a dropout carries no information, it is not "far").
         valid = scan.valid
@@ -73,20 +89,34 @@ class HumanTracker:
         ranges = np.where(self._last < self.max_range_m, self._last, 0.0)  # 0 = no return
         smoothed = LaserScan(scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, ranges)
         legs = detect_legs(smoothed, self.max_range_m, self.background)
-        torsos = torsos_from_legs(legs)
-        if len(torsos) == 0:
+        return self.scanner.to_base(legs) if len(legs) else np.zeros((0, 2))
+
+    def human_from_people(self, persons: list[Person]) -> Person | None:
+        """The confirmed person nearest the robot base, or None."""
+        confirmed = [p for p in persons if p.confirmed]
+        if not confirmed:
             return None
-        xy_b = self.scanner.to_base(torsos)
-        return xy_b[int(np.argmin(np.linalg.norm(xy_b, axis=1)))]
+        return min(confirmed, key=lambda p: float(p.p_xy_m @ p.p_xy_m))
 
     def push_scan(self, t_s: float, scan: LaserScan) -> np.ndarray | None:
-        """Process one scan stamped ``t_s`` [s]; returns the torso xy found, or None."""
+        """Process one scan stamped ``t_s`` [s]; returns the human's torso xy (base frame) when
+        the human's legs are in this scan, else None."""
         if not self.scans.push(t_s, [0.0]):
             return None
-        xy = self.torso_from_scan(scan)
-        if xy is not None:
-            self.torso.push(t_s, xy)
-        return xy
+        self.persons = self.people.update(t_s, self.legs_from_scan(scan))
+        human = self.human_from_people(self.persons)
+        if human is None or len(human.leg_xy_m) == 0:
+            return None  # not seen now: the torso stream ages and the model grows
+        self.torso.push(t_s, human.p_xy_m)
+        self.torso_velocity.push(t_s, human.v_xy_m_s)
+        return human.p_xy_m
+
+    def torso_velocity_at(self, t_s: float, until_s: float | None = None) -> np.ndarray | None:
+        """Shape (2,) [m/s], the tracked torso velocity in the base frame at the newest sighting
+        visible at ``until_s``; None when the human was never seen."""
+        if not np.isfinite(self.torso_velocity.age_s(t_s, until_s)):
+            return None
+        return self.torso_velocity.value_at(t_s, until_s)
 
     def push_imu(self, t_s: float, name: str, q_ref_imu) -> bool:
         """One IMU reading (xyzw, in its reference frame). False when refused as garbage."""
@@ -97,28 +127,36 @@ class HumanTracker:
     def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None)."""
         # Ages count from the newest sample at or before t_s, even when later ones are visible.
-        scan_age = self.scans.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
-        torso_age = self.torso.age_s(t_s, min(t_s, np.inf if until_s is None else until_s))
+        horizon = t_s if until_s is None else min(t_s, until_s)
+        scan_age = self.scans.age_s(t_s, horizon)
+        torso_age = self.torso.age_s(t_s, horizon)
         laser_alive = scan_age <= self.policy.laser_stale_after_s
         if not np.isfinite(torso_age):
             reason = "nobody in range" if laser_alive else "laser silent: human position unknown"
             return HumanCapsules.absent(t_s, reason, stale=not laser_alive)
         xy = self.torso.value_at(t_s, until_s)
         if laser_alive and torso_age > self.policy.laser_stale_after_s:
-            distance = float(np.linalg.norm(xy - [self.scanner.x_m, self.scanner.y_m]))
+            distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
             if could_have_left(distance, torso_age, self.max_range_m, self.policy):
                 return HumanCapsules.absent(t_s, "nobody in range")
+        caps = None
         if not self.imus:
             caps = conservative_capsules(t_s, xy, torso_age, self.body, policy=self.policy)
         else:
-            ages = {name: stream.age_s(t_s, min(t_s, np.inf if until_s is None else until_s)) for name, stream in self.imus.items()}
+            streams = [self.imus[name] for name in IMU_NAMES]
+            ages = {name: stream.age_s(t_s, horizon) for name, stream in zip(IMU_NAMES, streams)}
             if all(np.isfinite(a) for a in ages.values()):
-                r_ref_imu = rotations_at([self.imus[name] for name in IMU_NAMES], t_s, until_s)
-                r_b_imu = self._r_b_ref_all * r_ref_imu  # eq. 6 (base_orientation, batched)
-            else:
-                r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
-            ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}
-            caps = conservative_capsules(t_s, xy, torso_age, self.body, r_b_imu, ages, self.policy)
+                q0, q1, frac = quaternion_brackets(streams, t_s, until_s)
+                # One compiled call for the fresh 5-capsule human (None: stale or not finite).
+                caps = fresh_five_capsules(t_s, xy, torso_age, q0, q1, frac, self._r_b_ref_matrices,
+                                           self._body_vector, ages, self.policy)
+            if caps is None:  # the readable path: a silent IMU -> 1 capsule
+                if all(np.isfinite(a) for a in ages.values()):
+                    r_b_imu = self._r_b_ref_all * rotations_at(streams, t_s, until_s)  # eq. 6, batched
+                else:
+                    r_b_imu = Rotation.identity(len(IMU_NAMES))  # unused: a silent IMU -> 1 capsule
+                ages = {k: (v if np.isfinite(v) else 1e9) for k, v in ages.items()}
+                caps = conservative_capsules(t_s, xy, torso_age, self.body, r_b_imu, ages, self.policy)
         if not laser_alive:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)

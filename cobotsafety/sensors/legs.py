@@ -1,5 +1,15 @@
 """Leg detection from one laser scan, and the torso from the legs (paper 2, section 2.1.4).
 
+``detect_legs(..., method="learned")`` (the default) segments the scan into clusters
+(``leg_clusters``), computes their geometric features (``leg_features``) and keeps the clusters
+the bundled random forest (``leg_classifier``, trained by ``train_legs`` on the hand-labelled
+leg_tracker bags) calls legs. Each leg is placed on its axis as eq. 3 places it: one leg
+radius behind the cluster's nearest (3-beam averaged) return. (The bags' labels are cluster
+centroids, ~pi/4 of a radius in front of the axis; a centroid also drifts backwards with the
+trailing returns that eq. 1's time filter leaves behind a walking leg, the nearest return
+does not.)
+``method="paper"`` is the paper's rule below, kept for the experiments that reproduce it.
+
 The paper mirrors the clipped, filtered range profile and takes its peaks (the range minima)
 as legs, each centred one leg radius behind its minimum (eq. 3); the torso is the midpoint of
 the two legs (eq. 4). Raw peak picking also fires on table legs, wall corners and noise, so a
@@ -20,13 +30,21 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from cobotsafety.sensors.laser_filters import moving_average
 from cobotsafety.sensors.laser_scan import LaserScan
+from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
+from cobotsafety.sensors.leg_clusters import Clusters, segment
+from cobotsafety.sensors.leg_features import cluster_features
 
 #: Leg radius rho_l of eq. 3 [m].
 LEG_RADIUS_M = 0.06
+#: Widest cluster [m] (end to end) the learned detector considers: two legs side by side are
+#: ~0.4 m (the paper's rule: 0.40); the widest labelled leg cluster of the leg_tracker bags is
+#: 0.45 m. Wider clusters (walls, tables) are never legs, whatever the forest says.
+MAX_LEG_WIDTH_M = 0.5
 
 
 def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray | None,
@@ -44,10 +62,109 @@ def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray 
 
 
 def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
-                leg_radius_m: float = LEG_RADIUS_M, jump_m: float = 0.10, min_width_m: float = 0.03,
-                max_width_m: float = 0.40, smoothing_beams: int = 3,
-                background_margin_m: float = 0.10) -> np.ndarray:
-    """Leg centres [m] in the scanner frame, shape (k, 2) (k = 0 when nobody is there).
+                method: str = "learned", **options) -> np.ndarray:
+    """Leg positions [m] in the scanner frame, shape (k, 2) (k = 0 when nobody is there).
+
+    Args:
+        scan: the scan (any beam count and resolution).
+        max_range_m: clipping range (paper: 1.4 m); legs beyond it are not reported.
+        background: optional ranges of the empty scene, same beams; static objects are ignored.
+        method: ``"learned"`` (cluster classifier, ``learned_legs``) or ``"paper"``
+            (``paper_legs``); ``options`` go to that function.
+    """
+    if method == "learned":
+        return learned_legs(scan, max_range_m, background, **options)
+    if method == "paper":
+        return paper_legs(scan, max_range_m, background, **options)
+    raise ValueError(f"method must be 'learned' or 'paper', got {method!r}")
+
+
+def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
+                 forest: LegForest | None = None, threshold_probability: float | None = None,
+                 background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
+                 smoothing_beams: int = 3, max_width_m: float = MAX_LEG_WIDTH_M) -> np.ndarray:
+    """Leg axes [m], shape (k, 2), of the clusters the forest calls legs (module docstring).
+
+    Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
+    counts when its centroid is within ``max_range_m``, it is at most ``max_width_m`` wide
+    (first to last return), its leg probability exceeds
+    ``threshold_probability`` (default: the forest's, chosen by cross-validation, one with and
+    one without a background) and, with a ``background``, most of its returns are in front of
+    it by ``background_margin_m``.
+    ``forest``: default the bundled one.
+    """
+    forest = bundled_forest() if forest is None else forest
+    if threshold_probability is None:
+        threshold = (forest.threshold_probability_no_background if background is None
+                     else forest.threshold_probability)
+    else:
+        threshold = threshold_probability
+    clusters = segment(scan)
+    if clusters.count == 0:
+        return np.zeros((0, 2))
+    centroids = clusters.centroids()
+    near = np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m
+    last = clusters.stops - 1
+    near &= np.hypot(clusters.x_m[last] - clusters.x_m[clusters.starts],
+                     clusters.y_m[last] - clusters.y_m[clusters.starts]) <= max_width_m
+    if background is not None:
+        foreground = foreground_mask(scan, np.inf, background, background_margin_m)[clusters.beams]
+        in_front = np.concatenate([[0], np.cumsum(foreground)])  # not reduceat: dropped clusters lie between
+        share = (in_front[clusters.stops] - in_front[clusters.starts]) / (clusters.stops - clusters.starts)
+        near &= share > 0.5
+    if not near.any():
+        return np.zeros((0, 2))
+    keep = np.flatnonzero(near)
+    kept = Clusters(clusters.beams, clusters.x_m, clusters.y_m, clusters.ranges_m,
+                    clusters.starts[keep], clusters.stops[keep])
+    probability = forest.predict(cluster_features(scan, kept))
+    legs = keep[probability > threshold]
+    beam, nearest_m = _nearest_averaged_returns(clusters.ranges_m, clusters.starts[legs], clusters.stops[legs],
+                                                smoothing_beams)
+    theta = scan.angle_min + scan.angle_increment * clusters.beams[beam]
+    rho = nearest_m + leg_radius_m  # eq. 3
+    return np.column_stack([rho * np.cos(theta), rho * np.sin(theta)]).reshape(-1, 2)
+
+
+def nearest_averaged_returns_reference(ranges_m: np.ndarray, starts: np.ndarray, stops: np.ndarray,
+                                       smoothing_beams: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per cluster: the index (into ``ranges_m``) and value [m] of the minimum of its ranges
+    averaged over ``smoothing_beams`` (eq. 2, ``moving_average``). Readable version."""
+    index, value = [], []
+    for start, stop in zip(starts.tolist(), stops.tolist()):
+        smoothed = moving_average(ranges_m[start:stop], min(smoothing_beams, stop - start))
+        k = int(np.argmin(smoothed))
+        index.append(start + k)
+        value.append(float(smoothed[k]))
+    return np.array(index, dtype=np.int64), np.array(value, dtype=float)
+
+
+@numba.njit(cache=True)
+def _nearest_averaged_returns(ranges_m, starts, stops, smoothing_beams):
+    """Compiled ``nearest_averaged_returns_reference`` (a centred window, edges repeated)."""
+    index = np.empty(starts.size, dtype=np.int64)
+    value = np.empty(starts.size)
+    for j in range(starts.size):
+        s, e = starts[j], stops[j]
+        size = min(smoothing_beams, e - s)
+        left = size // 2
+        best, best_k = np.inf, s
+        for i in range(s, e):
+            acc = 0.0
+            for w in range(i - left, i - left + size):
+                acc += ranges_m[min(max(w, s), e - 1)]
+            if acc / size < best:
+                best, best_k = acc / size, i
+        index[j] = best_k
+        value[j] = best
+    return index, value
+
+
+def paper_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
+               leg_radius_m: float = LEG_RADIUS_M, jump_m: float = 0.10, min_width_m: float = 0.03,
+               max_width_m: float = 0.40, smoothing_beams: int = 3,
+               background_margin_m: float = 0.10) -> np.ndarray:
+    """Leg centres [m], shape (k, 2), by the paper's rule (module docstring).
 
     Args:
         scan: the scan (any beam count and resolution).

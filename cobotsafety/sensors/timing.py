@@ -13,6 +13,8 @@ returns garbage simply goes stale and the human model turns conservative.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -38,18 +40,20 @@ class VectorStream:
     def _width(self) -> int:
         return self.dim
 
-    def _check(self, value: np.ndarray) -> str:
-        if value.shape != (self._width(),):
-            return f"shape {value.shape}, expected ({self._width()},)"
-        if not np.isfinite(value).all():
+    def _check(self, value: list[float]) -> str:
+        if len(value) != self._width():
+            return f"shape ({len(value)},), expected ({self._width()},)"
+        if not all(map(math.isfinite, value)):
             return "non-finite value"
         return ""
 
     def push(self, t_s: float, value) -> bool:
         """Append one sample; returns False (and keeps the stream unchanged) on garbage."""
-        value = np.asarray(value, dtype=float).reshape(-1)
+        # Plain Python floats: numpy's per-call overhead dominated this 4-number check.
+        value = np.asarray(value, dtype=float).reshape(-1).tolist()
         problem = self._check(value)
-        if not problem and not np.isfinite(t_s):
+        t_s = float(t_s)
+        if not problem and not math.isfinite(t_s):
             problem = f"non-finite time {t_s}"
         if not problem and self._n and t_s <= self._t[self._n - 1]:
             problem = f"time {t_s} not after the previous sample {self._t[self._n - 1]}"
@@ -61,9 +65,12 @@ class VectorStream:
             self._t = np.concatenate([self._t, np.empty_like(self._t)])
             self._v = np.concatenate([self._v, np.empty_like(self._v)])
         self._t[self._n] = t_s
-        self._v[self._n] = self._normalised(value)
+        self._v[self._n] = self._normalised_one(value)
         self._n += 1
         return True
+
+    def _normalised_one(self, value: list[float]) -> list[float]:
+        return value
 
     def _normalised(self, value: np.ndarray) -> np.ndarray:
         return value
@@ -92,7 +99,7 @@ class VectorStream:
         return self._n
 
     def _visible(self, until_s: float | None) -> int:
-        if until_s is None:
+        if until_s is None or (self._n and until_s >= self._t[self._n - 1]):
             return self._n
         return int(np.searchsorted(self._t[: self._n], until_s, side="right"))
 
@@ -113,6 +120,8 @@ class VectorStream:
         if n == 0:
             raise LookupError(f"stream {self.name!r} has no sample at or before {until_s}")
         t = self._t[:n]
+        if t_s >= t[n - 1]:
+            return n - 1, n - 1, 0.0  # the newest sample held (the live case)
         k = int(np.searchsorted(t, t_s, side="right"))
         if k == 0:
             return 0, 0, 0.0
@@ -135,15 +144,19 @@ class QuaternionStream(VectorStream):
     def _width(self) -> int:
         return 4
 
-    def _check(self, value: np.ndarray) -> str:
+    def _check(self, value: list[float]) -> str:
         problem = super()._check(value)
-        norm = float(np.sqrt(value @ value)) if not problem else 1.0
+        norm = math.hypot(*value) if not problem else 1.0
         if abs(norm - 1.0) > UNIT_QUATERNION_TOLERANCE:
             return f"quaternion norm {norm:.6f} not within {UNIT_QUATERNION_TOLERANCE} of 1"
         return problem
 
     def _normalised(self, value: np.ndarray) -> np.ndarray:
         return value / np.linalg.norm(value, axis=-1, keepdims=True)
+
+    def _normalised_one(self, value: list[float]) -> list[float]:
+        norm = math.hypot(*value)
+        return [v / norm for v in value]
 
     def rotation_at(self, t_s: float, until_s: float | None = None) -> Rotation:
         """Slerp between the samples around ``t_s`` (shortest arc); held outside the range."""
@@ -158,14 +171,23 @@ class QuaternionStream(VectorStream):
         return self.rotation_at(t_s, until_s).as_quat()
 
 
+def quaternion_brackets(streams: list[QuaternionStream], t_s: float,
+                        until_s: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The samples around ``t_s`` of every stream: ``(q0 (n, 4), q1 (n, 4), frac (n,))``, the
+    orientation at ``t_s`` being the slerp from q0 to q1 by ``frac`` (``rotations_at``)."""
+    n = len(streams)
+    q0, q1, frac = np.empty((n, 4)), np.empty((n, 4)), np.empty(n)
+    for k, stream in enumerate(streams):
+        i, j, frac[k] = stream._bracket(t_s, until_s)
+        q0[k], q1[k] = stream._v[i], stream._v[j]
+    return q0, q1, frac
+
+
 def rotations_at(streams: list[QuaternionStream], t_s: float, until_s: float | None = None) -> Rotation:
     """All streams' orientations at ``t_s`` as one batched ``Rotation`` (one slerp for all)."""
-    brackets = [stream._bracket(t_s, until_s) for stream in streams]
-    q0 = np.array([stream._v[i] for stream, (i, _, _) in zip(streams, brackets)])
+    q0, q1, frac = quaternion_brackets(streams, t_s, until_s)
     r0 = Rotation.from_quat(q0)
-    frac = np.array([f for _, _, f in brackets])
     if not frac.any():
         return r0
-    q1 = np.array([stream._v[j] for stream, (_, j, _) in zip(streams, brackets)])
     delta = (r0.inv() * Rotation.from_quat(q1)).as_rotvec()
     return r0 * Rotation.from_rotvec(frac[:, None] * delta)

@@ -1,0 +1,234 @@
+"""Train the leg classifier on the leg_tracker bags and bundle it: ``python -m cobotsafety.sensors.train_legs``.
+
+Training set (``../shared/data/leg_tracker``, BSD-3, angusleigh/leg_tracker):
+
+* ``positive_1/2_extracted.bag``: the clusters whose centroid is within ``MATCH_M`` of a
+  hand-labelled leg cluster are legs; clusters farther than ``UNLABELLED_NEAR_M`` from every
+  label (walls, furniture of that room) are not; the ones in between (pieces of a leg split in
+  two) are left out.
+* ``negative_2.bag`` (three scanners, nobody in view): every cluster is not a leg.
+
+Each scan also enters decimated (every 2nd and 3rd beam), so the forest sees the resolutions
+of other scanners (0.35 deg here; 1 deg for the bench's TiM-like scanner).
+
+Cross-validation leaves one bag out at a time: a forest trained on the others detects legs in
+the held-out bag at full resolution (6 m range, with a per-beam background estimated from
+that bag and without), scored as ``evaluate_legs`` scores it. Two decision thresholds, one per
+setting (``choose_threshold``), from the held-out positive bags pooled (the fold that holds
+out the negative bag is reported, not used: its forest never saw a chair leg). Fixed seeds: the
+command writes the same model every run (``assets/legs/leg_forest.npz``) and prints the table.
+
+The forest is shallow on purpose (``FOREST``): with ~450 labelled legs from two recordings of
+one room, deep trees learn those scenes (held-out recall fell below 0.5); depth 6 with 20
+samples per leaf keeps to the shapes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from cobotsafety.sensors.laser_scan import LaserScan
+from cobotsafety.sensors.leg_classifier import LegForest
+from cobotsafety.sensors.leg_clusters import segment
+from cobotsafety.sensors.leg_features import cluster_features
+from cobotsafety.sensors.legs import estimate_background, learned_legs, torsos_from_legs
+from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
+
+DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "leg_tracker"
+DEFAULT_OUT = Path(__file__).resolve().parents[2] / "assets" / "legs" / "leg_forest.npz"
+POSITIVE_BAGS = ("positive_1_extracted.bag", "positive_2_extracted.bag")
+NEGATIVE_BAG, NEGATIVE_TOPICS = "negative_2.bag", ("/left_scan", "/rear_scan", "/right_scan")
+#: A cluster whose centroid is this close to a label [m] is a leg.
+MATCH_M = 0.10
+#: Unlabelled clusters closer than this to a label [m] are ambiguous (left out).
+UNLABELLED_NEAR_M = 0.5
+#: Beam decimations added to the training set.
+DECIMATIONS = (1, 2, 3)
+#: Every how many scans of the negative bag to use (consecutive scans are near duplicates).
+NEGATIVE_SCAN_STEP = 4
+#: Scoring: a label is found when a detection is within this distance [m].
+HIT_RADIUS_M = 0.25
+CV_RANGE_M = 6.0
+MAX_FALSE_PER_SCAN = 0.5
+MIN_RECALL = 0.5
+SETTINGS = ("background", "no_background")
+THRESHOLDS = (0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85,
+              0.9, 0.95, 0.97, 0.99)
+SEED = 14
+FOREST = dict(n_estimators=80, max_depth=6, min_samples_leaf=20, max_features="sqrt",
+              class_weight="balanced_subsample")
+
+
+def decimate(scan: LaserScan, step: int) -> LaserScan:
+    """Every ``step``-th beam of ``scan`` (the first beam kept)."""
+    if step == 1:
+        return scan
+    return LaserScan(scan.angle_min, scan.angle_increment * step, scan.range_min, scan.range_max,
+                     scan.ranges[::step], scan.stamp_s)
+
+
+def labelled_examples(scan: LaserScan, labels_m: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Features (c', F) and classes (c',) (1 = leg) of the usable clusters of one scan.
+
+    ``labels_m``: (k, 2) labelled leg positions, or None when nobody is in view.
+    """
+    clusters = segment(scan)
+    features = cluster_features(scan, clusters)
+    if labels_m is None or labels_m.size == 0:
+        return features, np.zeros(clusters.count, dtype=int)
+    distance = np.linalg.norm(clusters.centroids()[:, None] - labels_m[None], axis=-1).min(axis=1)
+    leg, other = distance <= MATCH_M, distance > UNLABELLED_NEAR_M
+    return features[leg | other], leg[leg | other].astype(int)
+
+
+def load_bags(data_dir: Path) -> dict[str, list[tuple[LaserScan, np.ndarray | None]]]:
+    """Bag name (a topic suffix for the negative bag) -> [(scan, labels or None)]."""
+    bags = {}
+    for name in POSITIVE_BAGS:
+        scans = read_laser_scans(data_dir / name, "/training_scan")
+        labels = read_pose_arrays(data_dir / name, "/leg_cluster_positions")
+        bags[name] = [(scan, xy) for scan, (_, xy) in zip(scans, labels)]
+    for topic in NEGATIVE_TOPICS:
+        bags[f"{NEGATIVE_BAG}{topic}"] = [(scan, None) for scan in read_laser_scans(data_dir / NEGATIVE_BAG, topic)]
+    return bags
+
+
+def group_of(bag: str) -> str:
+    return bag.split("/")[0]
+
+
+def training_set(bags: dict, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    xs, ys = [], []
+    for name in names:
+        step = NEGATIVE_SCAN_STEP if name.startswith(NEGATIVE_BAG) else 1
+        for scan, labels in bags[name][::step]:
+            for decimation in DECIMATIONS:
+                x, y = labelled_examples(decimate(scan, decimation), labels)
+                xs.append(x)
+                ys.append(y)
+    return np.concatenate(xs), np.concatenate(ys)
+
+
+def fit(x: np.ndarray, y: np.ndarray):
+    from sklearn.ensemble import RandomForestClassifier
+
+    return RandomForestClassifier(random_state=SEED, n_jobs=1, **FOREST).fit(x, y)
+
+
+def score_bag(scans: list[tuple[LaserScan, np.ndarray | None]], detect) -> dict:
+    """Counts for recall within HIT_RADIUS_M of labels within CV_RANGE_M, false detections per
+    scan, and the torso errors [m] of one-person scans (as ``evaluate_legs`` scores them)."""
+    labelled = found = false = 0
+    torso_errors = []
+    for scan, labels in scans:
+        legs = detect(scan)
+        truth = np.zeros((0, 2)) if labels is None else labels[np.linalg.norm(labels, axis=1) <= CV_RANGE_M]
+        labelled += truth.shape[0]
+        if legs.size and truth.size:
+            d = np.linalg.norm(legs[:, None] - truth[None], axis=-1)
+            found += int(np.sum(d.min(axis=0) <= HIT_RADIUS_M))
+            false += int(np.sum(d.min(axis=1) > HIT_RADIUS_M))
+        else:
+            false += legs.shape[0]
+        one_person = truth.shape[0] == 1 or (truth.shape[0] == 2 and np.linalg.norm(truth[0] - truth[1]) < 0.6)
+        torsos = torsos_from_legs(legs)
+        if one_person and torsos.size:
+            torso_errors.append(float(np.min(np.linalg.norm(torsos - truth.mean(axis=0), axis=1))))
+    return {"labelled": labelled, "found": found, "false": false, "scans": len(scans), "torso_errors_m": torso_errors}
+
+
+def print_curves(cv: dict, thresholds: np.ndarray) -> None:
+    """Recall / false detections per scan of every held-out bag at every threshold."""
+    print("threshold | " + " | ".join(f"{n} ({s})" for n, s in cv))
+    for i, t in enumerate(thresholds):
+        cells = [(f"{c[i]['found'] / c[i]['labelled']:.2f}" if c[i]["labelled"] else "-")
+                 + f" / {c[i]['false'] / c[i]['scans']:.2f}" for c in cv.values()]
+        print(f"{t} | " + " | ".join(cells))
+
+
+def cross_validate(bags: dict, thresholds: np.ndarray) -> dict:
+    """Leave-one-bag-out: per held-out bag, per background setting, counts per threshold."""
+    groups = sorted({group_of(n) for n in bags})
+    result = {}
+    for held_out in groups:
+        train = [n for n in bags if group_of(n) != held_out]
+        forest = LegForest.from_sklearn(fit(*training_set(bags, train)), 0.5, 0.5)
+        for name in (n for n in bags if group_of(n) == held_out):
+            scans = bags[name]
+            background = estimate_background([s for s, _ in scans])
+            for setting, bg in zip(SETTINGS, (background, None)):
+                result[(name, setting)] = [
+                    score_bag(scans, lambda s, t=t, bg=bg: learned_legs(s, CV_RANGE_M, bg, forest=forest,
+                                                                        threshold_probability=t))
+                    for t in thresholds]
+        print(f"  fold {held_out} done", flush=True)
+    return result
+
+
+def choose_threshold(cv: dict, thresholds: np.ndarray, setting: str) -> int:
+    """Index of the threshold for ``setting``: the best pooled recall over the held-out positive
+    bags with at most ``MAX_FALSE_PER_SCAN`` pooled false detections per scan and a recall of at
+    least ``MIN_RECALL``; when no threshold gets there, the best pooled F1 (a false leg makes
+    the robot careful, a missed one does not).
+    """
+    pooled = []
+    for i in range(thresholds.size):
+        rows = [counts[i] for (name, s), counts in cv.items() if s == setting and not name.startswith(NEGATIVE_BAG)]
+        found, labelled = sum(r["found"] for r in rows), sum(r["labelled"] for r in rows)
+        false, scans = sum(r["false"] for r in rows), sum(r["scans"] for r in rows)
+        pooled.append((found / labelled, false / scans, 2 * found / (labelled + found + false)))
+    feasible = [i for i, (recall, fp, _) in enumerate(pooled) if fp <= MAX_FALSE_PER_SCAN and recall >= MIN_RECALL]
+    if feasible:
+        return max(feasible, key=lambda i: (pooled[i][0], -pooled[i][1]))
+    return max(range(thresholds.size), key=lambda i: pooled[i][2])
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--curves", action="store_true", help="print recall / false per scan at every threshold")
+    args = parser.parse_args(argv)
+    bags = load_bags(args.data)
+    thresholds = np.array(THRESHOLDS)
+    cv = cross_validate(bags, thresholds)
+    if args.curves:
+        print_curves(cv, thresholds)
+    chosen = {setting: choose_threshold(cv, thresholds, setting) for setting in SETTINGS}
+    x, y = training_set(bags, list(bags))
+    forest = LegForest.from_sklearn(fit(x, y), float(thresholds[chosen["background"]]),
+                                    float(thresholds[chosen["no_background"]]))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    forest.save(args.out)
+    table = {f"{name} ({setting})": {
+        "scans": c["scans"], "labelled": c["labelled"],
+        "recall": round(c["found"] / c["labelled"], 3) if c["labelled"] else None,
+        "false_per_scan": round(c["false"] / c["scans"], 3),
+        "torso_error_median_m": round(float(np.median(c["torso_errors_m"])), 3) if c["torso_errors_m"] else None}
+        for (name, setting), counts in cv.items()
+        for c in [counts[chosen[setting]]]}
+    report = {"threshold_probability": forest.threshold_probability,
+              "threshold_probability_no_background": forest.threshold_probability_no_background,
+              "training_clusters": int(y.size),
+              "training_legs": int(y.sum()), "nodes": int(forest.feature.size), "trees": int(forest.roots.size),
+              "leave_one_bag_out": table}
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(f"thresholds {forest.threshold_probability} (background), "
+              f"{forest.threshold_probability_no_background} (none); {y.size} clusters ({y.sum()} legs), "
+              f"{forest.roots.size} trees / {forest.feature.size} nodes -> {args.out}")
+        print("held-out bag (setting) | scans | labelled | recall | false / scan | torso error median [m]")
+        for key, row in table.items():
+            print(f"{key} | {row['scans']} | {row['labelled']} | {row['recall']} | {row['false_per_scan']} | "
+                  f"{row['torso_error_median_m']}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

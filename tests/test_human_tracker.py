@@ -1,0 +1,88 @@
+"""HumanTracker fed by the PersonTracker: torso velocity, the human chosen, a lost track."""
+
+from __future__ import annotations
+
+import dataclasses
+from importlib.resources import files
+
+import numpy as np
+import pytest
+
+from cobotsafety.human.conservative import could_have_left
+from cobotsafety.human.recording import load_recording
+from cobotsafety.human.replay import Replay
+from cobotsafety.sensors.person_tracker import Person
+
+ASSETS = files("cobotsafety.assets") / "recordings"
+
+
+@pytest.fixture(scope="module")
+def recording():
+    return load_recording(ASSETS / "approach.jsonl.gz")
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return dict(np.load(ASSETS / "approach_truth.npz"))
+
+
+def test_torso_velocity_follows_the_generator_truth(recording, truth):
+    """The track's velocity (Kalman, causal) against the derivative of the true torso path."""
+    replay = Replay(recording)
+    t = truth["t_s"]
+    v_true = np.gradient(truth["torso_xy_b_m"], t, axis=0)
+    errors = []
+    for i, t_i in enumerate(t):
+        caps = replay.capsules_at(t_i)
+        v = replay.tracker.torso_velocity_at(t_i, t_i)
+        if v is not None and caps.present and not caps.stale:
+            errors.append(np.linalg.norm(v - v_true[i]))
+    errors = np.array(errors)
+    assert errors.size > 900
+    assert np.median(errors) < 0.08  # m/s; the walk is 0.7-0.9 m/s
+    assert np.percentile(errors, 95) < 0.25
+    assert replay.tracker.torso_velocity_at(t[0], t[0]) is None  # not seen yet: no velocity
+
+
+def person(track_id, xy, confirmed=True, seen_s=0.0):
+    return Person(track_id, np.array(xy, float), np.zeros(2), np.zeros((0, 2)), confirmed, seen_s)
+
+
+def test_the_human_is_the_confirmed_person_nearest_the_robot(recording):
+    tracker = Replay(recording).tracker
+    people = [person(1, [0.5, 0.0], confirmed=False), person(2, [1.0, 0.2]), person(3, [-0.8, -0.9])]
+    assert tracker.human_from_people(people).track_id == 2
+    assert tracker.human_from_people(people[:1]) is None
+
+
+def test_legs_lost_with_the_laser_alive_grow_the_human_then_let_it_go(recording):
+    """From t = 10 s the scans show the empty scene (the human hidden, or gone): the human stays,
+    flagged stale, at the last pose with a radius growing with the time since seen; nobody is
+    in range only once the human could have walked out of the clipped range."""
+    hidden_from_s = 10.0
+    later = recording.laser_t_s > hidden_from_s
+    empty_scene = np.max(recording.laser_ranges_m, axis=0)  # the farthest reading of every beam
+    hidden = recording.laser_ranges_m.copy()
+    hidden[later] = empty_scene
+    replay = Replay(dataclasses.replace(recording, laser_ranges_m=hidden))
+    before = replay.capsules_at(hidden_from_s)
+    assert before.present and not before.stale
+    scanner = np.array([recording.scanner.x_m, recording.scanner.y_m])
+    distance = float(np.linalg.norm(before.p0_b_m[0, :2] - scanner))
+    previous = before.radius_m
+    gone = False
+    for t in np.arange(hidden_from_s + 0.02, hidden_from_s + 2.0, 0.02):
+        caps = replay.capsules_at(t)
+        age = replay.tracker.torso.age_s(t, t)
+        if not caps.present:
+            assert could_have_left(distance, age, replay.tracker.max_range_m, replay.tracker.policy)
+            gone = True
+            continue
+        assert not gone, "the human came back from an empty scene"
+        assert np.allclose(caps.p0_b_m[0, :2], before.p0_b_m[0, :2], atol=0.05)  # held
+        assert np.all(caps.radius_m >= previous - 1e-12)
+        if age > replay.tracker.policy.laser_stale_after_s:
+            assert caps.stale and "legs not seen" in caps.reason
+            assert np.all(caps.radius_m >= before.radius_m + replay.tracker.policy.speed_m_s * (age - 0.03))
+        previous = caps.radius_m
+    assert gone

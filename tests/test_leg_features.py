@@ -1,0 +1,98 @@
+"""Cluster segmentation and cluster features: the compiled kernel against the numpy reference,
+and the geometry of circles and lines against their known shapes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cobotsafety.sensors.laser_scan import LaserScan
+from cobotsafety.sensors.leg_clusters import CLUSTER_JUMP_M, segment
+from cobotsafety.sensors.leg_features import (FEATURE_NAMES, JUMP_CAP_M, RADIUS_CAP_M, cluster_features,
+                                               features_reference)
+from cobotsafety.sensors.rosbag_io import read_laser_scans
+
+F = {name: i for i, name in enumerate(FEATURE_NAMES)}
+
+
+def scan_of(ranges, inc=math.radians(0.5)) -> LaserScan:
+    ranges = np.asarray(ranges, dtype=float)
+    return LaserScan(-inc * (ranges.size - 1) / 2, inc, 0.02, 20.0, ranges)
+
+
+def circle_scan(cx, cy, radius, beams=721, inc=math.radians(0.25)) -> LaserScan:
+    """Ray-cast one circle (exact ranges), nothing else in view."""
+    angles = -inc * (beams - 1) / 2 + inc * np.arange(beams)
+    b = np.cos(angles) * cx + np.sin(angles) * cy
+    disc = b**2 - (cx**2 + cy**2 - radius**2)
+    ranges = np.where(disc >= 0, b - np.sqrt(np.abs(disc)), np.inf)
+    return LaserScan(angles[0], inc, 0.02, 20.0, ranges)
+
+
+def test_segmentation_splits_at_jumps_and_skips_no_returns():
+    ranges = np.r_[np.full(10, 2.0), np.full(10, 2.5), [np.nan, 0.0, np.inf, -np.inf], np.full(10, 2.5), [2.0, 2.0]]
+    clusters = segment(scan_of(ranges))
+    assert clusters.count == 2  # 10 at 2 m; 20 at 2.5 m across the 4 no-returns (11 cm apart); the last 2: too few
+    assert np.all(np.isfinite(clusters.ranges_m)) and np.all(clusters.ranges_m > 0)
+    np.testing.assert_array_equal(clusters.stops - clusters.starts, [10, 20])
+    cx = clusters.centroids()
+    assert abs(np.hypot(*cx[0]) - 2.0) < 0.01
+
+
+def test_a_gap_wider_than_the_jump_splits_a_wall():
+    inc = math.radians(0.5)
+    ranges = np.full(200, 1.0)
+    ranges[100:100 + math.ceil(CLUSTER_JUMP_M / inc) + 1] = np.nan  # gap along the arc > jump
+    assert segment(scan_of(ranges, inc)).count == 2
+
+
+def test_circle_features_match_the_circle():
+    radius = 0.06
+    scan = circle_scan(1.5, 0.3, radius)
+    clusters = segment(scan)
+    assert clusters.count == 1
+    f = cluster_features(scan, clusters)[0]
+    assert abs(f[F["radius_m"]] - radius) < 1e-6
+    assert f[F["circularity_m"]] < 1e-9
+    assert f[F["linearity_m"]] > 1e-3
+    # Centre behind the visible arc, by about half a radius (centroid of a half circle).
+    assert 0.3 * radius < f[F["convexity_m"]] < radius
+    assert abs(f[F["mean_curvature_1_m"]] - 1 / radius) < 1e-6 * (1 / radius)
+    assert f[F["inscribed_angle_std_rad"]] < 1e-9  # constant along an arc
+    assert f[F["jump_before_m"]] == f[F["jump_after_m"]] == JUMP_CAP_M  # open space around it
+    assert abs(f[F["range_m"]] - (math.hypot(1.5, 0.3) - 0.5 * radius)) < 0.02
+
+
+def test_wall_features_are_straight():
+    inc = math.radians(0.5)
+    angles = -inc * 99.5 + inc * np.arange(200)
+    scan = scan_of(1.0 / np.cos(angles), inc)  # the wall x = 1 m
+    f = cluster_features(scan, segment(scan))[0]
+    assert f[F["linearity_m"]] < 1e-9
+    assert f[F["radius_m"]] == RADIUS_CAP_M
+    assert f[F["mean_curvature_1_m"]] < 1e-6
+    assert abs(f[F["width_m"]] - 2 * math.tan(inc * 99.5)) < 1e-9
+
+
+def test_kernel_equals_reference_on_real_scans(shared_data):
+    bag = shared_data / "leg_tracker" / "positive_1_extracted.bag"
+    for scan in read_laser_scans(bag, "/training_scan")[::10]:
+        clusters = segment(scan)
+        np.testing.assert_allclose(cluster_features(scan, clusters), features_reference(scan, clusters),
+                                   rtol=1e-9, atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(st.floats(0.05, 8.0), st.sampled_from([0.0, np.nan, np.inf])), min_size=2, max_size=300),
+       st.floats(0.001, 0.05))
+def test_kernel_equals_reference_on_random_scans(ranges, inc):
+    scan = scan_of(ranges, inc)
+    clusters = segment(scan)
+    fast, slow = cluster_features(scan, clusters), features_reference(scan, clusters)
+    assert fast.shape == slow.shape == (clusters.count, len(FEATURE_NAMES))
+    assert np.all(np.isfinite(fast))
+    # Near-collinear triples make the circle fit ill-conditioned: compare relative to scale.
+    np.testing.assert_allclose(fast, slow, rtol=1e-7, atol=1e-7)
