@@ -11,7 +11,7 @@ import pytest
 
 from cobotsafety.control.nominal_path import NominalPath, hold
 from cobotsafety.experiments.approach_metrics import run_metrics
-from cobotsafety.experiments.human_approach import PAPER_RESULTS, load_replay, run_approach
+from cobotsafety.experiments.human_approach import PAPER_RESULTS, experiment_arm_params, load_replay, run_approach
 from cobotsafety.human.generate_recording import generate, main as generate_main, truth_path
 
 ASSETS = files("cobotsafety.assets") / "recordings"
@@ -106,7 +106,16 @@ def test_short_exp2_anticipative_keeps_the_papers_distance_and_the_field_reprodu
     paper_distance, paper_speed = PAPER_RESULTS["exp2"]
     anticipative = run_approach("anticipative", scenario="exp2", duration_s=7.0, replay=replay).metrics
     assert anticipative.min_distance_plain_m >= paper_distance
-    assert anticipative.stopped_time_s == 0.0
+    assert anticipative.peak_ee_speed_m_s <= paper_speed  # issue 11: no faster than the paper's robot
+    assert anticipative.stopped_time_s == 0.0 and anticipative.stop_go_transitions == 0
     field = run_approach("reactive", scenario="exp2", duration_s=7.0, replay=replay).metrics
     assert field.min_distance_plain_m == pytest.approx(paper_distance, rel=0.2)
     assert field.peak_ee_speed_m_s == pytest.approx(paper_speed, rel=0.2)
+
+
+@pytest.mark.parametrize("scenario", ["exp1", "exp2"])
+def test_experiment_speed_cap_keeps_every_direction_under_the_papers_peak(scenario):
+    """The filter caps each axis: its worst direction (a cube's diagonal) stays under the paper's peak."""
+    cap = experiment_arm_params(scenario).max_speed_m_s
+    assert cap * np.sqrt(3.0) <= PAPER_RESULTS[scenario][1]
+    assert experiment_arm_params("exp2", replayed=True).max_speed_m_s == experiment_arm_params("exp1").max_speed_m_s

