@@ -56,7 +56,7 @@ class DemoConfig:
 
 GIL_SWITCH_INTERVAL_S = 0.0005
 """Python's thread switch interval while the demo runs [s] (default 0.005)."""
-FIG9_MARKER_RADIUS_M = 0.035
+FIG9_MARKER_RADIUS_M = 0.05
 """Radius of the ring marking the Fig. 9 target [m] (wider than the end-effector drawn on it)."""
 FIG9_MARKER_RGB = (40, 170, 60)
 FIG9_ARRIVED_M = 0.005
@@ -324,7 +324,7 @@ class DemoApp:
         target = np.array([*FIG9_TARGET_M, 0.0])
         ring = draw.polyline_segments(draw.circle_points(tuple(target[:2]), FIG9_MARKER_RADIUS_M, count=48))
         self._target_marker = self.server.scene.add_line_segments(
-            "/planar/fig9_target", ring, FIG9_MARKER_RGB, thickness=0.005)
+            "/planar/fig9_target", ring, FIG9_MARKER_RGB, thickness=0.008)
         self._scripted_target_m = target
         self._scripted_since_steps = self.loop.snapshot().steps
         self.loop.set_gizmo_target(target)

@@ -18,12 +18,12 @@ ASSETS = files("cobotsafety.assets") / "recordings"
 
 @pytest.fixture(scope="module")
 def recording():
-    return load_recording(ASSETS / "approach.jsonl.gz")
+    return load_recording(ASSETS / "reach-over.jsonl.gz")
 
 
 @pytest.fixture(scope="module")
 def truth():
-    return dict(np.load(ASSETS / "approach_truth.npz"))
+    return dict(np.load(ASSETS / "reach-over_truth.npz"))
 
 
 def test_torso_velocity_follows_the_generator_truth(recording, truth):

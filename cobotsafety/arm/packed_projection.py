@@ -15,6 +15,17 @@ FEASIBILITY_TOLERANCE = 1e-9
 
 
 @numba.njit(cache=True)
+def _submatrix(K, idx):  # pragma: no cover - compiled
+    """``K[idx][:, idx]`` (the active set's Gram matrix) as a fresh contiguous array."""
+    n = idx.size
+    out = np.empty((n, n))
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = K[idx[a], idx[b]]
+    return out
+
+
+@numba.njit(cache=True)
 def _dual_active_set(G, h, tol: float):  # pragma: no cover - compiled
     m, n = G.shape
     K = G @ G.T
@@ -27,11 +38,7 @@ def _dual_active_set(G, h, tol: float):  # pragma: no cover - compiled
         if slack[p] >= -tol:
             if na > 0:
                 idx = active[:na]
-                K_AA = np.empty((na, na))
-                for a in range(na):
-                    for b in range(na):
-                        K_AA[a, b] = K[idx[a], idx[b]]
-                lam_A = np.linalg.solve(K_AA, h[idx])
+                lam_A = np.linalg.solve(_submatrix(K, idx), h[idx])
                 if np.all(lam_A >= 0.0):
                     return G[idx].T @ lam_A, 0
             return G.T @ lam, 0
@@ -39,10 +46,7 @@ def _dual_active_set(G, h, tol: float):  # pragma: no cover - compiled
             K_p = K[p]
             if na > 0:
                 idx = active[:na]
-                K_AA = np.empty((na, na))
-                for a in range(na):
-                    for b in range(na):
-                        K_AA[a, b] = K[idx[a], idx[b]]
+                K_AA = _submatrix(K, idx)
                 if na > 1:
                     r = np.linalg.solve(K_AA, K_p[idx])
                 else:
