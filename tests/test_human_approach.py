@@ -119,3 +119,8 @@ def test_experiment_speed_cap_keeps_every_direction_under_the_papers_peak(scenar
     cap = experiment_arm_params(scenario).max_speed_m_s
     assert cap * np.sqrt(3.0) <= PAPER_RESULTS[scenario][1]
     assert experiment_arm_params("exp2", replayed=True).max_speed_m_s == experiment_arm_params("exp1").max_speed_m_s
+
+
+def test_paper_experiments_find_legs_with_the_papers_rule():
+    """Issue 14: ``method="paper"`` keeps paper 2's rule for the experiments that reproduce it."""
+    assert load_replay("exp2", None).tracker.leg_method == "paper"

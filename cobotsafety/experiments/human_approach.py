@@ -115,11 +115,12 @@ def load_replay(scenario: str, replay_file: Path | None):
     """The replay of ``replay_file`` (a recording or a ROS bag) or of the scenario's bundled one."""
     from cobotsafety.human.replay import Replay
 
+    # Paper 2's experiments find the legs with paper 2's rule (eqs. 2-3), as the paper did.
     if replay_file is None:
-        return Replay.from_file(bundled_recording(scenario))
+        return Replay.from_file(bundled_recording(scenario), leg_method="paper")
     if Path(replay_file).suffix in (".bag", ".mcap", ".db3") or Path(replay_file).is_dir():
-        return Replay.from_bag(replay_file)
-    return Replay.from_file(replay_file)
+        return Replay.from_bag(replay_file, leg_method="paper")
+    return Replay.from_file(replay_file, leg_method="paper")
 
 
 def experiment_arm_params(scenario: str, replayed: bool = False):

@@ -33,7 +33,7 @@ class Replay:
     """Human capsules at any time of a validated ``Recording``."""
 
     def __init__(self, recording: Recording, policy: StalePolicy = StalePolicy(),
-                 max_range_m: float = MAX_RANGE_M, use_background: bool = True):
+                 max_range_m: float = MAX_RANGE_M, use_background: bool = True, leg_method: str = "learned"):
         self.recording = recording
         geometry = recording.laser
         scans = [LaserScan(geometry["angle_min"], geometry["angle_increment"], geometry["range_min"],
@@ -43,7 +43,7 @@ class Replay:
                                  f"are not the five {IMU_NAMES} (or none)")
         background = estimate_background(scans) if use_background and len(scans) > 1 else None
         self.tracker = HumanTracker(recording.body, recording.scanner, recording.calibration or None,
-                                    background, policy, max_range_m)
+                                    background, policy, max_range_m, leg_method=leg_method)
         for t, scan in zip(recording.laser_t_s, scans):
             self.tracker.push_scan(float(t), scan)
         for name in self.tracker.imus:

@@ -52,8 +52,10 @@ class HumanTracker:
     def __init__(self, body: BodyDimensions, scanner: ScannerPose, imu_calibration: dict | None = None,
                  background: np.ndarray | None = None, policy: StalePolicy = StalePolicy(),
                  max_range_m: float = MAX_RANGE_M, time_filter_alpha: float = TIME_FILTER_ALPHA,
-                 people: PersonTrackerParams = PersonTrackerParams()):
+                 people: PersonTrackerParams = PersonTrackerParams(), leg_method: str = "learned"):
         self.body, self.scanner, self.policy = body, scanner, policy
+        self.leg_method = leg_method
+        """``detect_legs``'s method: ``"learned"`` or ``"paper"`` (paper 2's experiments)."""
         self.people = PersonTracker(people)
         self.persons: list[Person] = []
         """The people tracked after the newest scan (base frame)."""
@@ -88,7 +90,7 @@ class HumanTracker:
         self._last = self._filter.update(clipped)  # eq. 1
         ranges = np.where(self._last < self.max_range_m, self._last, 0.0)  # 0 = no return
         smoothed = LaserScan(scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, ranges)
-        legs = detect_legs(smoothed, self.max_range_m, self.background)
+        legs = detect_legs(smoothed, self.max_range_m, self.background, method=self.leg_method)
         return self.scanner.to_base(legs) if len(legs) else np.zeros((0, 2))
 
     def human_from_people(self, persons: list[Person]) -> Person | None:
