@@ -18,13 +18,6 @@ from cobotsafety.human.body import HumanCapsules
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
-def bundled_recording() -> Path:
-    """The recording shipped with the package (``assets/recordings/reach-over.jsonl.gz``)."""
-    from importlib.resources import files  # noqa: PLC0415
-
-    return Path(str(files("cobotsafety.assets") / "recordings" / "reach-over.jsonl.gz"))
-
-
 def load_replay(path: Path):
     """A ``Replay`` of a recording (.jsonl.gz) or a laser-only ROS bag (file or folder)."""
     from cobotsafety.human.replay import Replay  # noqa: PLC0415

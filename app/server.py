@@ -30,11 +30,12 @@ from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
 from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look, status_text
 from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
-from cobotsafety.app.replay_control import ReplayControl, bundled_recording, seek_maximum_s, without_server_paths
+from cobotsafety.app.replay_control import ReplayControl, seek_maximum_s, without_server_paths
 from cobotsafety.app.scene_human import HumanView, minimum_distance
 from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.zones_editor import ZoneEditor
 from cobotsafety.errors import CobotSafetyError, RecordingError
+from cobotsafety.human.recording import bundled_recording
 
 logger = logging.getLogger(__name__)
 logging.getLogger("cobotsafety.filter").addFilter(RepeatedWarningFilter())

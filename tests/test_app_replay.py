@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from cobotsafety.app.replay_control import ReplayControl, bundled_recording
+from cobotsafety.app.replay_control import ReplayControl
+from cobotsafety.human.recording import bundled_recording
 from cobotsafety.app.scene_human import minimum_distance
 from cobotsafety.human.body import HumanCapsules
 

@@ -18,18 +18,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from importlib.resources import files
-
     import numpy as np
 
     from cobotsafety.bench.timing import median_us
-    from cobotsafety.human.recording import load_recording
+    from cobotsafety.human.recording import bundled_recording, load_recording
     from cobotsafety.human.tracker import HumanTracker
     from cobotsafety.sensors.imu import IMU_NAMES
     from cobotsafety.sensors.laser_scan import LaserScan
     from cobotsafety.sensors.legs import detect_legs, estimate_background
 
-    rec = load_recording(files("cobotsafety.assets") / "recordings" / "reach-over.jsonl.gz")
+    rec = load_recording(bundled_recording())
     g = rec.laser
     window = np.flatnonzero((rec.laser_t_s > 9.0) & (rec.laser_t_s < 13.0))
     scans = [LaserScan(g["angle_min"], g["angle_increment"], g["range_min"], g["range_max"], rec.laser_ranges_m[i])

@@ -104,15 +104,9 @@ class ApproachRun:
                 "max_ee_accel_m_s2": mm(m.max_ee_accel_m_s2)}
 
 
-def bundled_recording(scenario: str) -> Path:
-    """The bundled recording of ``scenario`` (``assets/recordings/<scenario>.jsonl.gz``)."""
-    from importlib import resources
-
-    return Path(str(resources.files("cobotsafety.assets").joinpath("recordings", f"{scenario}.jsonl.gz")))
-
-
 def load_replay(scenario: str, replay_file: Path | None):
     """The replay of ``replay_file`` (a recording or a ROS bag) or of the scenario's bundled one."""
+    from cobotsafety.human.recording import bundled_recording
     from cobotsafety.human.replay import Replay
 
     # Paper 2's experiments find the legs with paper 2's rule (eqs. 2-3), as the paper did.

@@ -135,6 +135,18 @@ def _header(path: Path, line: str) -> dict:
     return header
 
 
+DEMO_RECORDING = "reach-over"
+"""The bundled recording the demo and the sensor bench replay (the reach-over stress case)."""
+
+
+def bundled_recording(name: str = DEMO_RECORDING) -> Path:
+    """The path of a recording shipped with the package (``assets/recordings/<name>.jsonl.gz``):
+    ``exp1``, ``exp2`` (paper 2's experiments) or ``reach-over``."""
+    from importlib.resources import files
+
+    return Path(str(files("cobotsafety.assets").joinpath("recordings", f"{name}.jsonl.gz")))
+
+
 def load_recording(path: str | Path) -> Recording:
     """Read and validate a whole recording; raises ``RecordingError`` naming file and line."""
     path = Path(path)
