@@ -25,16 +25,18 @@ def wxyz_from_xyzw(q_xyzw: np.ndarray) -> np.ndarray:
 def wxyz_z_to(direction: np.ndarray) -> np.ndarray:
     """Quaternion (wxyz) turning +z onto ``direction`` (shape (3,)); identity for a zero vector.
 
-    Closed form (the half-way quaternion ``(1 + z.d, z x d)`` normalised); a direction opposite
-    to +z turns by pi about x. Called for every capsule in every frame, so no scipy call.
+    Closed form (the half-way quaternion ``(1 + z.d, z x d)`` normalised); near -z, ``1 + dz`` is
+    taken as ``(dx^2 + dy^2) / (1 - dz)`` (the same number on the unit sphere, without the
+    cancellation), and exactly -z turns by pi about x. Called for every capsule in every frame,
+    so no scipy call.
     """
     d = np.asarray(direction, dtype=float)
     length = float(np.linalg.norm(d))
     if length < 1e-12:
         return np.array([1.0, 0.0, 0.0, 0.0])
     dx, dy, dz = d / length
-    w = 1.0 + dz
-    if w < 1e-9:
+    w = 1.0 + dz if dz >= 0.0 else (dx * dx + dy * dy) / (1.0 - dz)
+    if w == 0.0:
         return np.array([0.0, 1.0, 0.0, 0.0])
     q = np.array([w, -dy, dx, 0.0])
     return q / float(np.linalg.norm(q))
