@@ -6,6 +6,8 @@ Positions are in the robot base frame [m]; viser wants ``wxyz`` quaternions, the
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import trimesh
 
@@ -38,8 +40,7 @@ def wxyz_z_to(direction: np.ndarray) -> np.ndarray:
     w = 1.0 + dz if dz >= 0.0 else (dx * dx + dy * dy) / (1.0 - dz)
     if w == 0.0:
         return np.array([0.0, 1.0, 0.0, 0.0])
-    q = np.array([w, -dy, dx, 0.0])
-    return q / float(np.linalg.norm(q))
+    return np.array([w, -dy, dx, 0.0]) / math.hypot(w, dy, dx)  # hypot: no underflow of tiny parts
 
 
 def capsule_mesh(length_m: float, radius_m: float) -> trimesh.Trimesh:

@@ -80,6 +80,7 @@ from hypothesis import strategies as st
 @given(st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 1e-6))
 @example([0.0, 2.89867584433006e-07, -1.0])  # found by hypothesis: 1 + dz cancelled near -z
 @example([0.0, 0.0, -1.0])
+@example([0.0, 6.254490556801607e-163, -0.125])  # found by hypothesis: the norm's squares underflowed
 def test_closed_form_quaternion_is_a_unit_rotation_onto_any_direction(direction):
     """The per-frame closed form against scipy's rotation of +z (independent oracle)."""
     q = draw.wxyz_z_to(np.array(direction))
