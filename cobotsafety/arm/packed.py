@@ -27,7 +27,7 @@ import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
 from cobotsafety.arm.packed_kernel import (METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION,
-                                           STATUS_DONE, packed_step)
+                                           STATUS_DONE, packed_step, tag_of)
 from cobotsafety.arm.packed_kinematics import JOINT_CODES, joint_axis_local
 from cobotsafety.arm.packed_measures import BOX, CAPSULE, HALFSPACE, HUMAN, JOINT, REACH, TABLE
 from cobotsafety.arm.robot_state import RobotState
@@ -38,9 +38,12 @@ from cobotsafety.control.human_constraint import HumanCapsulesConstraint
 
 logger = logging.getLogger(__name__)
 
-_REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict"}
-_EMPTY, _EMPTY3 = np.zeros(0), np.zeros((0, 3))
+STATUS_SINGULAR = -1
+_REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict",
+            STATUS_SINGULAR: "singular active set"}
+_EMPTY, _EMPTY3, _EYE3 = np.zeros(0), np.zeros((0, 3)), np.eye(3)
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
+_HUMAN_ARRAYS = ("p0", "p1", "radius", "v0", "v1")
 
 
 def params_vector(params: ArmParams) -> np.ndarray:
@@ -123,8 +126,11 @@ class PackedArm:
         self._state = state
         self._pack: ConstraintPack | None = None
         self._params: tuple | None = None
-        self._layout: tuple | None = None
+        self._human: tuple | None = None
         self._names: tuple | None = None
+        self._robot_args = (self.robot_int, self.jtype, self.axes, self.parent, self.idx_q, self.idx_v,
+                            self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t)
+        self._no_previous = np.zeros(self.k)
         self._pack_capsules()
 
     def _pack_capsules(self) -> None:
@@ -135,6 +141,8 @@ class PackedArm:
         self.cap_p0l = np.ascontiguousarray(state.capsule_p0_local, dtype=float)
         self.cap_p1l = np.ascontiguousarray(state.capsule_p1_local, dtype=float)
         self.radius = np.ascontiguousarray(state.capsule_radius, dtype=float)
+        self._capsule_args = (self.cap_joint, self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper,
+                              self.limited, self.vlim)
         self._pack = None
 
     def packed(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
@@ -199,40 +207,48 @@ class PackedArm:
     def _human_arrays(self, pack: ConstraintPack):
         """The human capsules of every human constraint, concatenated, and the layout: ints
         (per-constraint human ranges), before_start (offsets of each constraint's distances),
-        the row bound. The layout is remade only when a human's capsule count changes."""
+        the row bound. Remade only when a human constraint's arrays are replaced (``set_human``)."""
+        cached = self._human
+        if cached is not None and cached[0] is pack:
+            if not pack.humans:
+                return cached[2]
+            if len(pack.humans) == 1:
+                con, (p0, p1, radius, v0, v1) = pack.humans[0], cached[1]
+                if con.p0 is p0 and con.p1 is p1 and con.radius is radius and con.v0 is v0 and con.v1 is v1:
+                    return cached[2]
+        arrays = tuple(getattr(con, a) for con in pack.humans for a in _HUMAN_ARRAYS)
+        if cached is not None and cached[0] is pack and all(a is b for a, b in zip(cached[1], arrays)):
+            return cached[2]
         counts = tuple(len(con.radius) for con in pack.humans)
-        if self._layout is None or self._layout[0] is not pack or self._layout[1] != counts:
-            ints, sizes = pack.ints.copy(), pack.before_start.copy()
-            first, h = 0, 0
-            n_caps = len(self._state.capsules)
-            for i, kind in enumerate(pack.kinds):
-                if kind == HUMAN:
-                    ints[i, 1], ints[i, 2] = first, counts[h]
-                    sizes[i] = (n_caps - ints[i, 0]) * counts[h]
-                    first += counts[h]
-                    h += 1
-            before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
-            np.cumsum(sizes, out=before_start[1:])
-            max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
-            self._layout = (pack, counts, (ints, before_start, int(before_start[-1]), max_rows))
+        ints, sizes = pack.ints.copy(), pack.before_start.copy()
+        first, h = 0, 0
+        n_caps = len(self._state.capsules)
+        for i, kind in enumerate(pack.kinds):
+            if kind == HUMAN:
+                ints[i, 1], ints[i, 2] = first, counts[h]
+                sizes[i] = (n_caps - ints[i, 0]) * counts[h]
+                first += counts[h]
+                h += 1
+        before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
+        np.cumsum(sizes, out=before_start[1:])
+        max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
         if not pack.humans:
-            arrays = (_EMPTY3, _EMPTY3, _EMPTY, _EMPTY3, _EMPTY3)
-        elif len(pack.humans) == 1:
-            con = pack.humans[0]
-            arrays = (con.p0, con.p1, con.radius, con.v0, con.v1)
+            human = (_EMPTY3, _EMPTY3, _EMPTY, _EMPTY3, _EMPTY3)
         else:
-            arrays = tuple(np.concatenate([getattr(con, a) for con in pack.humans])
-                           for a in ("p0", "p1", "radius", "v0", "v1"))
-        return (*self._layout[2], *(np.ascontiguousarray(a, dtype=float) for a in arrays))
+            human = tuple(np.ascontiguousarray(np.concatenate([getattr(con, a) for con in pack.humans]), dtype=float)
+                          for a in _HUMAN_ARRAYS)
+        layout = (ints, before_start, int(before_start[-1]), max_rows, *human)
+        self._human = (pack, arrays, layout)
+        return layout
 
-    # ---- names --------------------------------------------------------------------------------
+    # ---- names ----------------------------------------------------------------------------------
     def _namer(self, pack: ConstraintPack):
-        """The row-name function of ``pack`` (made once per pack)."""
+        """The row-name function of ``pack`` (made once per pack) and its memo of names by tag code."""
         if self._names is not None and self._names[0] is pack:
-            return self._names[1]
+            return self._names[1], self._names[2]
         name = self._make_namer(pack)
-        self._names = (pack, name)
-        return name
+        self._names = (pack, name, {})
+        return name, self._names[2]
 
     def _make_namer(self, pack: ConstraintPack):
         state = self._state
@@ -255,6 +271,21 @@ class PackedArm:
             return f"{con.name} ({state.capsules[a].name})"
         return name
 
+    def _binding_names(self, pack: ConstraintPack, codes: np.ndarray) -> tuple[str, ...]:
+        """The names of the binding rows (their tag codes), memoised per pack (a human's names
+        are read from the constraint: its memo is cleared when the human's arrays change)."""
+        namer, memo = self._namer(pack)
+        if pack.humans and memo.get("human") is not self._human:
+            memo.clear()
+            memo["human"] = self._human
+        names = []
+        for code in codes.tolist():
+            name = memo.get(code)
+            if name is None:
+                name = memo[code] = namer(tag_of(code))
+            names.append(name)
+        return tuple(names)
+
     # ---- the step -----------------------------------------------------------------------------
     def step(self, state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: list[ArmConstraint],
              params: ArmParams, method: str = "anticipative", R_world_ee_ref: np.ndarray | None = None,
@@ -264,63 +295,64 @@ class PackedArm:
         The constraints are packed again when ``constraints`` is another list object (keep one
         list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
         """
-        args = (state, v_desired, dt_s, constraints, params, method, R_world_ee_ref, last_qdot, v_previous)
         self.steps += 1
         pack = self.packed(constraints) if self.supported else None
-        reason = ("joint type" if not self.supported else "constraint type" if pack is None
-                  else "method" if method not in _METHODS else "another state" if state is not self._state else None)
-        if reason:
-            return self._reference(reason, *args)
+        if pack is None or method not in _METHODS or state is not self._state:
+            reason = ("joint type" if not self.supported else "constraint type" if pack is None
+                      else "method" if method not in _METHODS else "another state")
+            return self._reference(reason, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref,
+                                   last_qdot, v_previous)
         v = np.asarray(v_desired, dtype=float).reshape(-1)
         if v.shape != (3,):
             raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
         if not dt_s > 0:
             raise ValueError(f"dt_s must be positive, got {dt_s}")
-        speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        vx, vy, vz = v.tolist()
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
         if not math.isfinite(speed):
-            return self._reference("non-finite command", *args)
+            return self._reference("non-finite command", state, v_desired, dt_s, constraints, params, method,
+                                   R_world_ee_ref, last_qdot, v_previous)
         if speed > params.max_speed_m_s:
-            v = v * params.max_speed_m_s / speed
+            v = v * params.max_speed_m_s / speed  # the reference's rounding
         k = self.k
-        vk = np.ascontiguousarray(v[:k])
-        previous = np.zeros(k)
+        vk = v if k == 3 else np.ascontiguousarray(v[:k])
+        previous = self._no_previous
         if v_previous is not None:
-            previous = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
-            previous = np.ascontiguousarray(previous) if math.isfinite(previous.sum()) else np.zeros(k)
+            given = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
+            if math.isfinite(sum(given.tolist())):
+                previous = np.ascontiguousarray(given)
         if self._params is None or self._params[0] is not params:
             self._params = (params, params_vector(params))
         ints, before_start, n_before, max_rows, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
-        R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else np.eye(3)
+        R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else _EYE3
         try:
-            result = packed_step(
+            (status, q_next, qdot, command, stopped, normals, bounds, tags, codes, relaxed_rows, worst_row,
+             worst_violation, net_scale, p_ee, R_ee, J6, p0, p1, origins) = packed_step(
                 np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
-                _METHODS[method], R_ref, with_orientation, self.robot_int, self.jtype, self.axes, self.parent, self.idx_q,
-                self.idx_v, self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t, self.cap_joint,
-                self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper, self.limited, self.vlim,
-                float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1,
-                hr, hv0, hv1, self._params[1])
+                _METHODS[method], R_ref, with_orientation, *self._robot_args, *self._capsule_args,
+                float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1, hr,
+                hv0, hv1, self._params[1])
         except np.linalg.LinAlgError:  # an active set on dependent rows: the reference says why
-            return self._reference("singular active set", *args)
-        (status, q_next, qdot, command, stopped, normals, bounds, binding, tags, violation, net_scale, p_ee, R_ee, J6, p0, p1,
-         origins) = result
+            status = STATUS_SINGULAR
         if status != STATUS_DONE:
-            return self._reference(_REASONS[status], *args)
+            return self._reference(_REASONS[status], state, v_desired, dt_s, constraints, params, method,
+                                   R_world_ee_ref, last_qdot, v_previous)
         state.set_kinematics(q_next, p_ee, R_ee, J6, p0, p1, origins)
-        namer = self._namer(pack)
-        names = tuple(namer(t) for t in tags[binding])
-        command_full = np.zeros(3)
-        command_full[:k] = command
-        relaxed = violation.size > 0 and violation.max() > 0.0
+        names = self._binding_names(pack, codes)
+        if k == 3:
+            command_full = command
+        else:
+            command_full = np.zeros(3)
+            command_full[:k] = command
         reason = ""
-        if relaxed:
-            worst = int(np.argmax(violation))
-            reason = (f"retreats contradict: relaxed {int(np.sum(violation > 0))} row(s), "
-                      f"at most {violation[worst]:.3g} m/s ({namer(tags[worst])})")
-        if stopped and method == "anticipative" and not reason:
+        if relaxed_rows:
+            reason = (f"retreats contradict: relaxed {relaxed_rows} row(s), "
+                      f"at most {worst_violation:.3g} m/s ({self._namer(pack)[0](tags[worst_row])})")
+        elif stopped and method == "anticipative":
             reason = "blocked by " + ", ".join(names) if names else "blocked"
-        return ArmStepInfo(v, command_full, qdot, names, bool(stopped), float(net_scale),
-                           HalfSpaces(normals, bounds, _RowNames(namer, tags)), relaxed, reason)
+        return ArmStepInfo(v, command_full, qdot, names, stopped, net_scale,
+                           HalfSpaces(normals, bounds, _RowNames(self._namer(pack)[0], tags)), relaxed_rows > 0, reason)
 
     def _reference(self, reason: str, *args) -> ArmStepInfo:
         self.fallbacks[reason] += 1

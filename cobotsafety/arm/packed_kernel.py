@@ -25,6 +25,17 @@ STATUS_DONE, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION = 0, 1, 2
 
 
 @numba.njit(cache=True)
+def tag_code(con: int, a: int, b: int) -> int:  # pragma: no cover - compiled
+    """One integer per row tag ``(constraint, a, b)``, each -1 <= value < 2^16 - 1 (``tag_of`` inverts it)."""
+    return ((con + 1) << 32) | ((a + 1) << 16) | (b + 1)
+
+
+def tag_of(code: int) -> tuple[int, int, int]:
+    """The ``(constraint, a, b)`` tag of ``tag_code``."""
+    return (code >> 32) - 1, ((code >> 16) & 0xFFFF) - 1, (code & 0xFFFF) - 1
+
+
+@numba.njit(cache=True)
 def approach_limit(d: float, angular: bool, dt_s: float, max_accel: float) -> float:  # pragma: no cover - compiled
     """``step.approach_limit`` for one gap ``d`` [m or rad]."""
     d = max(d, 0.0)
@@ -58,8 +69,11 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
                 hp0, hp1, hr, hv0, hv1, params):  # pragma: no cover - compiled
     """One step. ``params``: ArmParams as floats (see ``packed.params_vector``).
 
-    Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), binding (m,),
-    tags (m, 3), violation (m,), net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1, origins)`` with the kinematics at ``q_next``.
+    Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), tags (m, 3),
+    binding_codes (b,), relaxed_rows, worst_row, worst_violation, net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1,
+    origins)`` with the kinematics at ``q_next``: ``binding_codes`` the binding rows' tags as ``tag_code``,
+    ``relaxed_rows`` how many rows' retreats were relaxed, the worst by ``worst_violation`` [m/s] at
+    ``worst_row`` (-1: none).
     """
     (max_speed, width_m, width_rad, activation_m, w_threshold, damping_max, orientation_gain,
      centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain, max_accel) = (
@@ -91,8 +105,9 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
                          tag, before, before_start)
     empty_f = np.zeros(0)
     if not ok:
-        return (STATUS_BOX_TOUCHED, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f, np.zeros(0, dtype=np.bool_),
-                np.zeros((0, 3), dtype=np.int64), empty_f, 1.0, p_ee, R_ee, J6, p0, p1, origins)
+        return (STATUS_BOX_TOUCHED, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f,
+                np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64), 0, -1, 0.0, 1.0, p_ee, R_ee, J6, p0, p1,
+                origins)
     dist, A, rate, angular, tag = dist[:m], A[:m], rate[:m], angular[:m], tag[:m]
     buffer = np.where(angular, buffer_rad, buffer_m)
     # ---- secondary-task scale (``step.secondary_scale``) ---------------------------------------
@@ -193,8 +208,8 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
                     floors[i] = 0.0
             command, violation_all, status = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
             if status != 0:  # the approach-nothing rows alone contradict (rounding): the reference says why
-                return (STATUS_CONTRADICTION, q, np.zeros(nv), command, False, N, bnd, np.zeros(n_hs, dtype=np.bool_),
-                        tags, violation, 1.0, p_ee, R_ee, J6, p0, p1, origins)
+                return (STATUS_CONTRADICTION, q, np.zeros(nv), command, False, N, bnd, tags, np.zeros(0, dtype=np.int64),
+                        0, -1, 0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins)
             violation = violation_all[:n_hs].copy()
         binding = N @ command - (bnd - violation) <= BINDING_TOLERANCE
         stopped = np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12)
@@ -239,8 +254,8 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
             after, ok = constraint_distances(kinds[con], reals[con], ints[con], q_next, p_ee2, p02, p12, radius,
                                              lower, upper, limited, hp0, hp1, hr, 0.0)
             if not ok:
-                return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, binding, tags, violation, 1.0, p_ee, R_ee, J6,
-                        p0, p1, origins)
+                return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, tags, np.zeros(0, dtype=np.int64), 0, -1,
+                        0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins)
             for i in range(part.shape[0]):
                 if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
                     admissible = False
@@ -254,6 +269,19 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
             low = scale
         else:
             high = scale
-    return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, binding, tags, violation,
-            net_scale,
-            p_ee2, R_ee2, J62, p02, p12, origins2)
+    n_binding = 0
+    for i in range(binding.shape[0]):
+        n_binding += binding[i]
+    codes = np.empty(n_binding, dtype=np.int64)
+    n_binding = 0
+    relaxed_rows, worst_row, worst_violation = 0, -1, 0.0
+    for i in range(binding.shape[0]):
+        if binding[i]:
+            codes[n_binding] = tag_code(tags[i, 0], tags[i, 1], tags[i, 2])
+            n_binding += 1
+        if violation[i] > 0.0:
+            relaxed_rows += 1
+            if violation[i] > worst_violation:
+                worst_row, worst_violation = i, violation[i]
+    return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, tags, codes, relaxed_rows,
+            worst_row, worst_violation, net_scale, p_ee2, R_ee2, J62, p02, p12, origins2)

@@ -189,6 +189,21 @@ def human_pairs(p0, p1, radius, skip: int, hp0, hp1, hr):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
+def human_minimum(p0, p1, radius, skip: int, hp0, hp1, hr):  # pragma: no cover - compiled
+    """The smallest of ``human_pairs``' distances [m] and its closest points (robot, human),
+    the first in row-major (robot capsule, human capsule) order on ties; inf and NaN points when
+    there is no pair."""
+    d, pr, ph = human_pairs(p0, p1, radius, skip, hp0, hp1, hr)
+    if d.shape[0] == 0:
+        return np.inf, np.full(3, np.nan), np.full(3, np.nan)
+    best = 0
+    for i in range(1, d.shape[0]):
+        if d[i] < d[best]:
+            best = i
+    return d[best], pr[best].copy(), ph[best].copy()
+
+
+@numba.njit(cache=True)
 def constraint_distances(kind: int, real, ints, q, p_ee, p0, p1, radius, lower, upper, limited,
                          hp0, hp1, hr, exact_below: float):  # pragma: no cover - compiled
     """One constraint's ``distances(state)`` (``exact_below`` = 0) and ``ok``."""

@@ -101,7 +101,7 @@ class ArmTeleop:
         v = np.asarray(v_desired_m_s, dtype=float).reshape(-1)
         if v.shape != (3,):
             raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
-        before = self.p_base_ee_m
+        before = self.state.p_world_ee  # the step replaces this array, never writes into it
         stepper = self.packed.step if self.packed is not None else step
         info = stepper(self.state, v, dt_s, self.constraints, self.params, method, self.R_world_ee_ref, self.last_qdot,
                        self.last_command)
@@ -111,11 +111,12 @@ class ArmTeleop:
             self.contradictions += 1
             if self.contradictions == 1:  # once per episode; the count is in every StepReport
                 logger.warning("%s (further contradictions this episode are counted, not logged)", info.reason)
+        after = self.state.p_world_ee
         return StepReport(
             v_desired_m_s=info.v_desired,
             v_commanded_m_s=info.v_commanded,
-            v_executed_m_s=(self.state.p_world_ee - before) / dt_s,
-            p_base_ee_m=self.p_base_ee_m,
+            v_executed_m_s=(after - before) / dt_s,
+            p_base_ee_m=after.copy(),
             binding=info.binding,
             stopped=info.stopped,
             reason=info.reason,

@@ -17,6 +17,7 @@ the same half-spaces are applied to its joint velocities.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,7 +90,7 @@ class HumanAwareArm:
         if controller not in CONTROLLERS:
             raise ValueError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
         v = np.asarray(v_desired_m_s, dtype=float)
-        if not np.all(np.isfinite(v)):
+        if not math.isfinite(sum(v.ravel().tolist())):
             v = np.zeros(3)
         state = self.state
         if controller == "reactive":

@@ -103,7 +103,7 @@ class HumanAwareTeleop:
     def _hold(self, v_desired_m_s: np.ndarray) -> np.ndarray:
         """The user's command, or (released: zero) the attraction back to the held point."""
         v = np.asarray(v_desired_m_s, dtype=float)
-        if not (np.all(np.isfinite(v)) and np.all(v == 0.0)):
+        if any(x != 0.0 for x in v.ravel().tolist()):  # driven (NaN too: the filter refuses it)
             self.p_hold_m = None
             return v
         p = self.p_base_ee_m

@@ -19,11 +19,15 @@ import numpy as np
 
 from cobotsafety.arm.constraints import ArmConstraint, Measures
 from cobotsafety.arm.robot_state import RobotState
-from cobotsafety.arm.packed_measures import human_pairs
+from cobotsafety.arm.packed_measures import human_minimum, human_pairs
 from cobotsafety.human.body import HumanCapsules
 
 DEFAULT_CRITICAL_M = 0.25
 DEFAULT_ACTIVATION_M = 0.60
+
+
+def _contiguous(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
 
 
 @dataclass
@@ -68,9 +72,10 @@ class HumanCapsulesConstraint(ArmConstraint):
         """Minimum human-robot distance [m] and its closest points (robot, human)."""
         if self.radius.size == 0 or len(state.capsules) <= self.skip_capsules:
             return np.inf, np.full(3, np.nan), np.full(3, np.nan)
-        d, pr, ph = self.pairs(state)
-        i, j = np.unravel_index(np.argmin(d), d.shape)
-        return float(d[i, j]), pr[i, j], ph[i, j]
+        # The first smallest of ``pairs``' distances, in one compiled call.
+        c = _contiguous
+        return human_minimum(c(state.capsule_p0), c(state.capsule_p1), c(state.capsule_radius), self.skip_capsules,
+                             c(self.p0), c(self.p1), c(self.radius))
 
     def distances(self, state: RobotState) -> np.ndarray:
         if self.radius.size == 0:
