@@ -195,3 +195,64 @@ def test_an_overrunning_loop_integrates_the_time_that_passed_up_to_10_ms():
     assert dts.min() >= loop.settings.dt_s - 1e-12 and dts.max() <= 0.010 + 1e-12
     assert np.median(dts) > 0.005  # not the nominal 2 ms: the robot keeps real time
     assert dts.sum() == pytest.approx(wall, rel=0.25)
+
+
+def test_stats_running_rate_matches_the_window_mean_after_wrapping():
+    stats = LoopStats(window=100)
+    rng = np.random.default_rng(3)
+    periods = rng.uniform(0.0008, 0.004, 1234)
+    for period in periods:
+        stats.add(period, late_s=period / 2)
+    assert stats.rate_hz == pytest.approx(1.0 / periods[-100:].mean(), rel=1e-12)
+    s = stats.summary()
+    assert s["rate_hz"] == pytest.approx(stats.rate_hz, rel=1e-12)
+    assert s["late_p99_ms"] == pytest.approx(np.percentile(periods[-100:] / 2, 99) * 1e3)
+    assert LoopStats().rate_hz == 0.0
+
+
+class SimulatedClock:
+    """Time that passes only when the loop sleeps or the robot works."""
+
+    def __init__(self):
+        self.now_s = 50.0
+        self.sleeps: list[float] = []
+
+    def __call__(self) -> float:
+        return self.now_s
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        self.now_s += seconds + 60e-6  # a sleep wakes 60 us late
+
+
+class StallingRobot(SlowRobot):
+    """Works 200 us a step, 6 ms every 100th step; stops the loop after ``steps`` steps."""
+
+    def __init__(self, clock: SimulatedClock, loop_ref: list, steps: int):
+        super().__init__()
+        self.clock, self.loop_ref, self.steps = clock, loop_ref, steps
+
+    def step(self, v, dt_s, method="anticipative"):
+        self.dts.append(dt_s)
+        self.clock.now_s += 0.006 if len(self.dts) % 100 == 0 else 0.0002
+        if len(self.dts) == self.steps:
+            self.loop_ref[0]._stop.set()
+
+
+def test_the_loop_catches_up_after_a_stall_on_a_simulated_clock():
+    clock = SimulatedClock()
+    loop_ref: list = []
+    robot = StallingRobot(clock, loop_ref, steps=1000)
+    loop = ControlLoop(robot, LoopSettings(rate_hz=1000.0))
+    loop_ref.append(loop)
+    loop.clock, loop.sleep = clock, clock.sleep
+    start_s = clock.now_s
+    loop._run()
+    assert robot.dts == [0.001] * 1000  # every tick a nominal step, also around the stalls
+    assert loop.stats.overruns == 0
+    # 1000 ticks in 1000 periods of wall time (plus the last tick's work and the stall): held
+    assert clock.now_s - start_s == pytest.approx(1.0, abs=0.007)
+    summary = loop.stats.summary()
+    assert summary["rate_hz"] == pytest.approx(1000.0, rel=0.01)
+    assert summary["max_ms"] == pytest.approx(6.0)  # the stall shows in the periods
+    assert loop.snapshot().t_s == pytest.approx(1.0)
