@@ -2,12 +2,14 @@
 protection zones, and the zone the command slides on highlighted.
 
 Nodes are made once; ``update`` only turns the frames of the joints that moved by more than
-``REDRAW_TOLERANCE_RAD`` since the last frame sent (``UrdfJointPoser``) and moves the capsules
-whose ends moved by more than ``REDRAW_TOLERANCE_M`` (an arm holding still, or creeping in its
-null space, sends nothing). The render thread shares the interpreter with the control loop, so
-a frame should be cheap: ``ViserUrdf.update_cfg`` re-posed every frame of the URDF through
-yourdfpy's scene graph (~3 ms a frame for the panda); the poser computes only the moving joints'
-rotations, in closed form.
+``REDRAW_TOLERANCE_RAD`` since the last frame sent (``UrdfJointPoser``); an arm holding still,
+or creeping in its null space, sends nothing. Each robot capsule is a child of its joint's URDF
+frame, so it moves with its link at no cost (without a URDF, the capsules whose ends moved by
+more than ``REDRAW_TOLERANCE_M`` are posed in the world frame). The render thread shares the
+interpreter with the control loop, so a frame should be cheap: ``ViserUrdf.update_cfg`` re-posed
+every frame of the URDF through yourdfpy's scene graph, and the capsules were posed one by one
+(~3 ms a frame for the panda); the poser computes only the moving joints' rotations, in closed
+form.
 """
 
 from __future__ import annotations
@@ -73,6 +75,8 @@ class UrdfJointPoser:
         self.rows: list[tuple] | None = None
         """Per moving joint frame: (frame, leader index, multiplier, offset, type, origin wxyz,
         axis (3,), origin position [m], origin-rotated axis (3,)); None: ``update_cfg`` only."""
+        self.frames: dict[str, object] = {}
+        """Joint name -> the scene node of its child link's frame (empty without the internals)."""
         self._posed: np.ndarray | None = None
         try:
             urdf = viser_urdf._urdf
@@ -81,6 +85,8 @@ class UrdfJointPoser:
             names = list(urdf.actuated_joint_names)
         except (AttributeError, TypeError, ValueError):
             return
+        for joint, frame in pairs:
+            self.frames.setdefault(joint.name, frame)  # the visual tree's frame comes first
         from viser import transforms as tf  # noqa: PLC0415
 
         rows = []
@@ -152,16 +158,29 @@ class ArmView:
             self.joint_names = tuple(self.urdf.get_actuated_joint_names())
             self.poser = UrdfJointPoser(self.urdf)
         self.capsules = []
+        self.capsule_attached = np.zeros(len(state.capsule_radius), dtype=bool)
+        """True for a capsule made a child of its joint's URDF frame: it moves with the link and
+        costs nothing per frame. The others are posed in the world frame by ``update``."""
+        frames = self.poser.frames if self.urdf is not None else {}
         for i in range(len(state.capsule_radius)):
-            length = float(np.linalg.norm(state.capsule_p1_local[i] - state.capsule_p0_local[i]))
-            self.capsules.append(server.scene.add_mesh_simple(
-                f"{ROOT}/capsules/{i}", *_mesh_arrays(draw.capsule_mesh(length, float(state.capsule_radius[i]))),
-                color=CAPSULE_COLOUR, opacity=0.25 if self.urdf is not None else 0.9))
+            axis = state.capsule_p1_local[i] - state.capsule_p0_local[i]
+            mesh = _mesh_arrays(draw.capsule_mesh(float(np.linalg.norm(axis)), float(state.capsule_radius[i])))
+            look = {"color": CAPSULE_COLOUR, "opacity": 0.25 if self.urdf is not None else 0.9}
+            parent = frames.get(state.capsules[i].joint)
+            if parent is not None:  # capsule ends are fixed in the joint frame = the child link's frame
+                self.capsules.append(server.scene.add_mesh_simple(
+                    f"{parent.name}/capsule_{i}", *mesh, position=state.capsule_p0_local[i],
+                    wxyz=draw.wxyz_z_to(axis), **look))
+                self.capsule_attached[i] = True
+            else:
+                self.capsules.append(server.scene.add_mesh_simple(f"{ROOT}/capsules/{i}", *mesh, **look))
         self.zone_nodes: dict[str, object] = {}
         self._capsules_drawn: tuple[np.ndarray, np.ndarray] | None = None
         """Capsule ends (p0, p1) as last sent, shape (r, 3) each [m]."""
         self._highlighted: tuple[str, ...] = ()
         self.redraw_zones()
+        if self.urdf is not None:  # the fixed joints' frames are placed once, here
+            self.poser.pose(urdf_joint_values(state.model, np.asarray(state.q, dtype=float), self.joint_names))
 
     def redraw_zones(self) -> None:
         for node in self.zone_nodes.values():
@@ -211,7 +230,7 @@ class ArmView:
             drawn = self._capsules_drawn = (p0.copy(), p1.copy())
         else:
             moved = np.maximum(np.abs(p0 - drawn[0]).max(axis=1), np.abs(p1 - drawn[1]).max(axis=1)) >= REDRAW_TOLERANCE_M
-        for i in np.flatnonzero(moved[:len(self.capsules)]):
+        for i in np.flatnonzero(moved[:len(self.capsules)] & ~self.capsule_attached):
             node = self.capsules[i]
             node.position = p0[i]
             node.wxyz = draw.wxyz_z_to(p1[i] - p0[i])

@@ -56,11 +56,48 @@ def test_poser_turns_only_the_joints_that_moved_by_the_tolerance(server):
     assert len(changed) == 1
 
 
-def test_arm_view_moves_only_the_capsules_that_moved(server):
+def world_pose(handles: dict, node) -> tuple[np.ndarray, np.ndarray]:
+    """(R, p) of ``node`` in the world: its pose composed with every ancestor frame in ``handles``."""
+    parts = node.name.split("/")
+    R, p = np.eye(3), np.zeros(3)
+    for depth in range(2, len(parts) + 1):
+        handle = node if depth == len(parts) else handles.get("/".join(parts[:depth]))
+        if handle is None:
+            continue  # a root frame (identity)
+        R_local = viser.transforms.SO3(np.asarray(handle.wxyz, dtype=float)).as_matrix()
+        p = p + R @ np.asarray(handle.position, dtype=float)
+        R = R @ R_local
+    return R, p
+
+
+def test_capsules_ride_on_their_links_where_pinocchio_puts_them(server):
+    from cobotsafety.arm.teleop import ArmTeleop
+
+    teleop = ArmTeleop("panda")
+    state = teleop.state
+    view = ArmView(server, teleop)
+    assert view.capsule_attached.all()
+    handles = {frame.name: frame for frame in view.urdf._joint_frames}
+    snapshot = type("Snapshot", (), {"report": None})()
+    rng = np.random.default_rng(11)
+    lower, upper = state.model.lowerPositionLimit, state.model.upperPositionLimit
+    for _ in range(3):  # the first pose goes through update_cfg, the next ones through the poser
+        state.q = rng.uniform(lower, upper)
+        state.update()
+        view.update(snapshot, state.q, (state.capsule_p0, state.capsule_p1, state.capsule_radius))
+        for i, node in enumerate(view.capsules):
+            R, p = world_pose(handles, node)
+            length = float(np.linalg.norm(state.capsule_p1_local[i] - state.capsule_p0_local[i]))
+            np.testing.assert_allclose(p, state.capsule_p0[i], atol=1e-9)
+            np.testing.assert_allclose(p + R @ [0.0, 0.0, length], state.capsule_p1[i], atol=1e-9)
+
+
+def test_capsules_without_a_urdf_frame_move_only_when_they_moved(server):
     from cobotsafety.arm.teleop import ArmTeleop
 
     teleop = ArmTeleop("panda")
     view = ArmView(server, teleop)
+    view.capsule_attached[:] = False  # as for a robot without URDF meshes: posed in the world frame
     state = teleop.state
     snapshot = type("Snapshot", (), {"report": None})()
     p0, p1, radius = state.capsule_p0.copy(), state.capsule_p1.copy(), state.capsule_radius.copy()
