@@ -40,6 +40,47 @@ def test_guard_invariants(target, previous):
     assert np.linalg.norm(v - previous) <= 0.004 + 1e-12
 
 
+def guard_reference(v_target, v_previous, dt_s, max_speed, max_accel):
+    """The guard written with numpy norms (its first implementation): the oracle."""
+    v_previous = np.asarray(v_previous, dtype=float)
+    v_target = np.asarray(v_target, dtype=float)
+    if v_target.shape != v_previous.shape or not np.all(np.isfinite(v_target)):
+        v_target = np.zeros_like(v_previous)
+    with np.errstate(over="ignore"):
+        speed = float(np.linalg.norm(v_target))
+    if not np.isfinite(speed):
+        v_target, speed = np.zeros_like(v_previous), 0.0
+    if speed > max_speed:
+        v_target = v_target * (max_speed / speed)
+    change = v_target - v_previous
+    size = float(np.linalg.norm(change))
+    if size > max_accel * dt_s:
+        change = change * (max_accel * dt_s / size)
+    return v_previous + change
+
+
+# below 1e150 the reference's squared norm cannot overflow (see the test after this one)
+components = st.one_of(st.floats(-1e150, 1e150), st.sampled_from([np.nan, np.inf, -np.inf]))
+
+
+@given(st.lists(components, min_size=2, max_size=3), st.lists(st.floats(-0.25, 0.25), min_size=3, max_size=3),
+       st.sampled_from([0.001, 0.002, 0.01]))
+def test_guard_equals_the_numpy_reference(target, previous, dt_s):
+    previous = np.array(previous)
+    v = guard_command(np.array(target), previous, dt_s, 0.25, 2.0)
+    assert v.shape == previous.shape
+    np.testing.assert_allclose(v, guard_reference(np.array(target), previous, dt_s, 0.25, 2.0), rtol=1e-12, atol=1e-15)
+
+
+def test_guard_caps_a_huge_finite_target_along_its_direction():
+    # the reference's squared norm overflowed for 1e154 and dropped it as garbage; hypot does
+    # not overflow, so it is capped like any other command (only the acceleration step moves)
+    v = guard_command(np.array([0.0, 0.0, 1.34e154]), np.zeros(3), 0.001, 0.25, 2.0)
+    np.testing.assert_allclose(v, [0.0, 0.0, 0.002])
+    v = guard_command(np.array([1.5e308, 1.5e308, 0.0]), np.array([0.0, 0.1, 0.0]), 0.001, 0.25, 2.0)
+    np.testing.assert_allclose(v, [0.0, 0.098, 0.0])  # the norm overflows even for hypot: zero target
+
+
 def test_stats_percentiles():
     stats = LoopStats(window=100)
     for period in [0.002] * 98 + [0.010, 0.012]:
