@@ -9,8 +9,10 @@ step"), so a late wake-up does not shift every later tick: the schedule has no d
   the simulated time trails the wall clock by at most ``max_lag_s``. A stall of a few
   milliseconds (another thread holding the interpreter) then costs no ticks.
 * Only with headroom: the loop catches up only while its ticks take less than a period
-  (running mean of the tick durations, ``TICK_MEAN_WEIGHT``); a robot whose step is slower than
-  the period could never catch up, so each of its late ticks integrates the time that passed.
+  (running mean of the tick durations, ``TICK_MEAN_WEIGHT``, each counted as at most two
+  periods so that one stalled tick does not stop the catching up); a robot whose step is slower
+  than the period could never catch up, so each of its late ticks integrates the time that
+  passed.
 * Resynchronising: a tick that does not catch up integrates the time since its deadline plus
   one period (at most ``max_dt_s``) and starts a new grid at ``now``; it counts as an overrun.
 
@@ -53,7 +55,7 @@ class TickSchedule:
         self.due_s = start_s
         """Deadline of the next tick [s]."""
         self.tick_mean_s = 0.0
-        """Running mean of the tick durations [s] (``finish`` minus ``start``)."""
+        """Running mean of the tick durations [s] (``finish`` minus ``start``, at most 2 periods)."""
         self._started_s = start_s
 
     @property
@@ -73,6 +75,6 @@ class TickSchedule:
 
     def finish(self, now_s: float) -> float:
         """The tick's work is done at ``now_s``: how long to sleep until the next deadline [s]."""
-        duration_s = max(0.0, now_s - self._started_s)
+        duration_s = min(max(0.0, now_s - self._started_s), 2.0 * self.period_s)
         self.tick_mean_s += TICK_MEAN_WEIGHT * (duration_s - self.tick_mean_s)
         return max(0.0, self.due_s - now_s)

@@ -85,3 +85,10 @@ def test_simulated_time_never_runs_ahead_and_trails_by_at_most_the_lag_bound(dur
         wall_s = start - starts[0] + PERIOD_S  # the tick integrates up to one period ahead
         assert simulated_s <= wall_s + 1e-9
         assert wall_s - simulated_s - lost_s <= MAX_LAG_S + 1e-9
+
+
+def test_one_stalled_tick_does_not_stop_the_catching_up():
+    # a 30 ms tick (resynchronised), then ticks whose sleeps wake 60 us late: caught up, no overrun
+    _, ticks, _ = run([0.0002] * 5 + [0.030] + [0.0002] * 50 + [0.004] + [0.0002] * 20, overshoot_s=60e-6)
+    assert [i for i, t in enumerate(ticks) if t.overrun] == [6]
+    assert all(t.dt_s == PERIOD_S for t in ticks[7:])
