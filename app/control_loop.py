@@ -4,11 +4,17 @@ Inputs (gizmo target, jog buttons, mode) arrive from browser callbacks at any ra
 set fields under a lock. Each period the loop turns them into one desired velocity, guards it
 (NaN -> zero, speed cap, acceleration limit so nothing jumps), calls ``robot.step`` with the
 nominal period and publishes a snapshot. Rendering reads snapshots at its own rate.
+
+Ticks are due on a fixed grid; a loop held up by a few milliseconds catches up with nominal
+steps, a loop further behind (or slower than its period) integrates the time that passed in one
+step of at most ``MAX_DT_S`` (``TickSchedule``). ``LoopStats`` keeps the periods, how late each
+tick started and the overruns.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -18,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from cobotsafety.app.gizmo import GizmoSettings, offset_to_velocity
+from cobotsafety.app.tick_schedule import TickSchedule
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.teleop import METHODS, StepReport, Teleoperated
 
@@ -40,6 +47,10 @@ class LoopSettings:
     """A jog press commands its velocity for this long, then zero [s]."""
     workspace_radius_m: float = 2.0
     """Gizmo targets farther than this from the base are pulled back onto this sphere [m]."""
+    max_lag_s: float = MAX_DT_S
+    """A tick at most this late [s] still runs with the nominal period (the loop catches up on
+    its schedule); later, the ticks missed are dropped and their time integrated in one step
+    (``TickSchedule``)."""
 
     @property
     def dt_s(self) -> float:
@@ -51,44 +62,74 @@ def guard_command(v_target_m_s: np.ndarray, v_previous_m_s: np.ndarray, dt_s: fl
     """The velocity to send [m/s], shape of ``v_previous_m_s``; finite by construction.
 
     Non-finite targets become zero; the speed is capped at ``max_speed_m_s``; the change from
-    ``v_previous_m_s`` is capped at ``max_accel_m_s2 * dt_s`` (norm).
+    ``v_previous_m_s`` is capped at ``max_accel_m_s2 * dt_s`` (norm). Runs every control tick on
+    2 or 3 numbers, so in plain floats (numpy's per-call overhead was most of its ~8 us).
     """
     v_previous = np.asarray(v_previous_m_s, dtype=float)
     v_target = np.asarray(v_target_m_s, dtype=float)
-    if v_target.shape != v_previous.shape or not np.all(np.isfinite(v_target)):
-        v_target = np.zeros_like(v_previous)
-    with np.errstate(over="ignore"):
-        speed = float(np.linalg.norm(v_target))
-    if not np.isfinite(speed):  # finite but astronomically large: treat as garbage
-        v_target, speed = np.zeros_like(v_previous), 0.0
+    previous = v_previous.ravel().tolist()
+    target = v_target.ravel().tolist() if v_target.shape == v_previous.shape else None
+    # hypot of finite numbers can still overflow: astronomically large is garbage too
+    speed = math.hypot(*target) if target is not None and all(map(math.isfinite, target)) else math.inf
+    if not math.isfinite(speed):
+        target, speed = [0.0] * len(previous), 0.0
     if speed > max_speed_m_s:
-        v_target = v_target * (max_speed_m_s / speed)
-    change = v_target - v_previous
+        target = [c * (max_speed_m_s / speed) for c in target]
+    change = [t - p for t, p in zip(target, previous)]
     max_change = max_accel_m_s2 * dt_s
-    size = float(np.linalg.norm(change))
+    size = math.hypot(*change)
     if size > max_change:
-        change = change * (max_change / size)
-    return v_previous + change
+        change = [c * (max_change / size) for c in change]
+    return np.array([p + c for p, c in zip(previous, change)]).reshape(v_previous.shape)
 
 
 class LoopStats:
-    """Periods of the last ``window`` control steps, for the loop-rate readout and the bench."""
+    """Periods (tick start to tick start) and lateness of the last ``window`` control ticks, for
+    the loop-rate readout and the bench; ``overruns`` counts the ticks that had to drop missed
+    ticks (see ``TickSchedule``).
+
+    ``add`` runs in the control thread and ``rate_hz`` is O(1) (a running sum), so a render
+    frame can read the rate every frame; ``summary`` sorts the window (bench, status).
+    """
 
     def __init__(self, window: int = 2000):
         self.periods_s: deque[float] = deque(maxlen=window)
+        self.late_s: deque[float] = deque(maxlen=window)
         self.overruns = 0
+        self._sum_s = 0.0
+        self._adds = 0
 
-    def add(self, period_s: float) -> None:
-        self.periods_s.append(period_s)
+    def add(self, period_s: float, late_s: float = 0.0) -> None:
+        periods = self.periods_s
+        if len(periods) == periods.maxlen:
+            self._sum_s -= periods[0]
+        periods.append(period_s)
+        self.late_s.append(late_s)
+        self._sum_s += period_s
+        self._adds += 1
+        if self._adds % periods.maxlen == 0:  # no drift of the running sum
+            self._sum_s = math.fsum(periods)
+
+    @property
+    def rate_hz(self) -> float:
+        """1 / mean period of the window [Hz]; 0 when empty."""
+        count = len(self.periods_s)
+        return count / self._sum_s if count and self._sum_s > 0.0 else 0.0
 
     def summary(self) -> dict[str, float]:
-        """``rate_hz`` (1 / mean period), ``p50_ms``, ``p99_ms``, ``max_ms``; zeros when empty."""
-        if not self.periods_s:
-            return {"rate_hz": 0.0, "p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0}
-        periods = np.fromiter(self.periods_s, dtype=float)
+        """``rate_hz`` (1 / mean period), ``p50_ms``, ``p99_ms``, ``max_ms`` of the periods,
+        ``late_p99_ms`` (tick start after its deadline) and ``overruns``; zeros when empty."""
+        periods_list = list(self.periods_s)  # one C-level copy: safe against the control thread
+        late_list = list(self.late_s)
+        if not periods_list:
+            return {"rate_hz": 0.0, "p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0, "late_p99_ms": 0.0,
+                    "overruns": float(self.overruns)}
+        periods = np.array(periods_list)
         p50, p99 = np.percentile(periods, [50, 99])
+        late_p99 = float(np.percentile(late_list, 99)) if late_list else 0.0
         return {"rate_hz": float(1.0 / periods.mean()), "p50_ms": float(p50 * 1e3),
-                "p99_ms": float(p99 * 1e3), "max_ms": float(periods.max() * 1e3)}
+                "p99_ms": float(p99 * 1e3), "max_ms": float(periods.max() * 1e3),
+                "late_p99_ms": late_p99 * 1e3, "overruns": float(self.overruns)}
 
 
 @dataclass(frozen=True)
@@ -106,10 +147,16 @@ class LoopSnapshot:
     """Shape (dim,), the guarded desired velocity given to ``robot.step`` [m/s]."""
     dragging: bool
     stats: dict = field(default_factory=dict)
+    """``rate_hz``: the loop rate over the last ``LoopStats`` window [Hz] (the full summary is
+    ``ControlLoop.stats.summary()``)."""
 
 
 class ControlLoop:
     """Steps ``robot`` at ``settings.rate_hz`` in a daemon thread; thread-safe inputs."""
+
+    clock: Callable[[], float] = staticmethod(time.perf_counter)
+    """The loop's clock [s] (a test may give a simulated one, with ``sleep``)."""
+    sleep: Callable[[float], None] = staticmethod(time.sleep)
 
     def __init__(self, robot: Teleoperated, settings: LoopSettings = LoopSettings(),
                  gizmo: GizmoSettings = GizmoSettings()):
@@ -230,7 +277,7 @@ class ControlLoop:
         with self.lock:
             return LoopSnapshot(self._t_s, self._steps, self._method, self._report,
                                 np.array(self._robot.p_base_ee_m, dtype=float), self._v_sent.copy(),
-                                self._gizmo_target_m is not None, self.stats.summary())
+                                self._gizmo_target_m is not None, {"rate_hz": self.stats.rate_hz})
 
     # ---- thread ------------------------------------------------------------------------
     def start(self) -> None:
@@ -251,31 +298,26 @@ class ControlLoop:
         return self._thread is not None and self._thread.is_alive()
 
     def _run(self) -> None:
-        period = self.settings.dt_s
-        clock = time.perf_counter
-        deadline = clock()
+        clock, sleep = self.clock, self.sleep
+        s = self.settings
+        schedule = TickSchedule(s.dt_s, s.max_lag_s, MAX_DT_S, clock())
         last = None
         while not self._stop.is_set():
             now = clock()
-            elapsed = period
+            tick = schedule.start(now)
+            stats = self.stats  # the bench swaps in a fresh one between phases
+            if tick.overrun:
+                stats.overruns += 1
             if last is not None:
-                self.stats.add(now - last)
-                elapsed = now - last
+                stats.add(now - last, tick.late_s)
             last = now
             try:
-                # A period that overran (a slow 3D step, a busy machine) is integrated with the
-                # time that really passed, up to ``MAX_DT_S``: the robot keeps real time instead
-                # of moving in slow motion, and the filter's guarantees hold up to that step.
-                self.step_once(min(max(elapsed, period), MAX_DT_S))
+                self.step_once(tick.dt_s)
             except Exception:  # noqa: BLE001 - the loop must survive a bad step; robot holds still
                 logger.exception("control step failed; commanding zero")
                 with self.lock:
                     self._v_sent = np.zeros(self._robot.dim)
                     self._gizmo_target_m = None
-            deadline += period
-            delay = deadline - clock()
-            if delay > 0:
-                time.sleep(delay)
-            elif delay < -period:  # fell behind by more than a period: do not burst to catch up
-                self.stats.overruns += 1
-                deadline = clock()
+            delay_s = schedule.finish(clock())
+            if delay_s > 0.0:
+                sleep(delay_s)

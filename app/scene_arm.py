@@ -1,13 +1,20 @@
 """The 3D arm scene: URDF meshes (``viser.extras.ViserUrdf``), translucent robot capsules,
 protection zones, and the zone the command slides on highlighted.
 
-Nodes are made once; ``update`` only sets the URDF joint configuration and the capsule poses,
-and only when a joint moved by more than ``REDRAW_TOLERANCE_RAD`` since the last frame sent (an
-arm holding still, or creeping in its null space, sends nothing).
+Nodes are made once; ``update`` only turns the frames of the joints that moved by more than
+``REDRAW_TOLERANCE_RAD`` since the last frame sent (``UrdfJointPoser``); an arm holding still,
+or creeping in its null space, sends nothing. Each robot capsule is a child of its joint's URDF
+frame, so it moves with its link at no cost (without a URDF, the capsules whose ends moved by
+more than ``REDRAW_TOLERANCE_M`` are posed in the world frame). The render thread shares the
+interpreter with the control loop, so a frame should be cheap: ``ViserUrdf.update_cfg`` re-posed
+every frame of the URDF through yourdfpy's scene graph, and the capsules were posed one by one
+(~3 ms a frame for the panda); the poser computes only the moving joints' rotations, in closed
+form.
 """
 
 from __future__ import annotations
 
+import math
 
 import numpy as np
 import viser
@@ -21,7 +28,10 @@ CAPSULE_COLOUR = (90, 140, 230)
 ZONE_COLOUR = (230, 120, 40)
 HALF_SPACE_SIZE_M = 1.5
 REDRAW_TOLERANCE_RAD = 1e-3
-"""Joint change [rad] (or [m] for prismatic joints) below which a frame does not move the arm."""
+"""Joint change [rad] (or [m] for prismatic joints) below which a frame does not turn that joint."""
+REDRAW_TOLERANCE_M = 5e-4
+"""Capsule end displacement [m] below which a frame does not move that capsule."""
+MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic")
 
 
 def urdf_joint_values(model, q: np.ndarray, joint_names: tuple[str, ...]) -> np.ndarray:
@@ -39,6 +49,90 @@ def urdf_joint_values(model, q: np.ndarray, joint_names: tuple[str, ...]) -> np.
         elif joint.nq == 2:
             values[i] = np.arctan2(q[joint.idx_q + 1], q[joint.idx_q])
     return values
+
+
+def _quaternion_product(a, b) -> tuple[float, float, float, float]:
+    """Hamilton product of two ``wxyz`` quaternions."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+class UrdfJointPoser:
+    """Poses a ``ViserUrdf``'s joint frames from the URDF joint values, moving joints only.
+
+    ``pose(values)`` sets what ``ViserUrdf.update_cfg(values)`` would (the frame of each joint
+    = its origin times its motion), but computes only revolute, continuous and prismatic joints
+    (mimic joints follow their leader), in closed form, and only those whose value changed by
+    ``tolerance`` or more since they were last posed. The first call goes through
+    ``update_cfg`` itself, which also places the fixed joints once. Without the ``ViserUrdf``
+    internals it reads (another viser version), every call goes through ``update_cfg``.
+    """
+
+    def __init__(self, viser_urdf, tolerance: float = REDRAW_TOLERANCE_RAD):
+        self.viser_urdf, self.tolerance = viser_urdf, tolerance
+        self.rows: list[tuple] | None = None
+        """Per moving joint frame: (frame, leader index, multiplier, offset, type, origin wxyz,
+        axis (3,), origin position [m], origin-rotated axis (3,)); None: ``update_cfg`` only."""
+        self.frames: dict[str, object] = {}
+        """Joint name -> the scene node of its child link's frame (empty without the internals)."""
+        self._posed: np.ndarray | None = None
+        try:
+            urdf = viser_urdf._urdf
+            pairs = list(zip(viser_urdf._joint_map_values, viser_urdf._joint_frames, strict=True))
+            scale = float(viser_urdf._scale)
+            names = list(urdf.actuated_joint_names)
+        except (AttributeError, TypeError, ValueError):
+            return
+        for joint, frame in pairs:
+            self.frames.setdefault(joint.name, frame)  # the visual tree's frame comes first
+        from viser import transforms as tf  # noqa: PLC0415
+
+        rows = []
+        for joint, frame in pairs:
+            if joint.type not in MOVING_JOINT_TYPES:
+                continue
+            leader, multiplier, offset = joint.name, 1.0, 0.0
+            if joint.mimic is not None:
+                leader = joint.mimic.joint
+                multiplier, offset = float(joint.mimic.multiplier), float(joint.mimic.offset)
+            if leader not in names:
+                return  # yourdfpy's own fallbacks for odd URDFs: leave it to update_cfg
+            origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+            axis = np.asarray(joint.axis, dtype=float)
+            axis = axis / np.linalg.norm(axis)
+            rows.append((frame, names.index(leader), multiplier, offset, joint.type,
+                         tuple(float(c) for c in tf.SO3.from_matrix(origin[:3, :3]).wxyz), axis,
+                         origin[:3, 3] * scale, origin[:3, :3] @ axis * scale))
+        self.rows = rows
+
+    def pose(self, values: np.ndarray) -> int:
+        """Joint values [rad or m] in ``get_actuated_joint_names()`` order; returns the number
+        of joint frames set (all of them on the first call)."""
+        values = np.asarray(values, dtype=float)
+        if self.rows is None or self._posed is None or self._posed.shape != values.shape:
+            self.viser_urdf.update_cfg(values)
+            self._posed = values.copy()
+            return len(getattr(self.viser_urdf, "_joint_frames", ()))
+        moved = np.abs(values - self._posed) >= self.tolerance
+        if not moved.any():
+            return 0
+        count = 0
+        for frame, leader, multiplier, offset, kind, origin_wxyz, axis, origin_p, origin_axis in self.rows:
+            if not moved[leader]:
+                continue
+            q = values[leader] * multiplier + offset
+            if kind == "prismatic":
+                frame.position = origin_p + origin_axis * q
+            else:
+                half = 0.5 * q
+                sine = math.sin(half)
+                frame.wxyz = _quaternion_product(
+                    origin_wxyz, (math.cos(half), sine * axis[0], sine * axis[1], sine * axis[2]))
+            count += 1
+        self._posed[moved] = values[moved]
+        return count
 
 
 def _mesh_arrays(mesh):
@@ -62,16 +156,31 @@ class ArmView:
             path = urdf_path(state.spec.name)
             self.urdf = ViserUrdf(server, path, root_node_name=f"{ROOT}/urdf")
             self.joint_names = tuple(self.urdf.get_actuated_joint_names())
+            self.poser = UrdfJointPoser(self.urdf)
         self.capsules = []
+        self.capsule_attached = np.zeros(len(state.capsule_radius), dtype=bool)
+        """True for a capsule made a child of its joint's URDF frame: it moves with the link and
+        costs nothing per frame. The others are posed in the world frame by ``update``."""
+        frames = self.poser.frames if self.urdf is not None else {}
         for i in range(len(state.capsule_radius)):
-            length = float(np.linalg.norm(state.capsule_p1_local[i] - state.capsule_p0_local[i]))
-            self.capsules.append(server.scene.add_mesh_simple(
-                f"{ROOT}/capsules/{i}", *_mesh_arrays(draw.capsule_mesh(length, float(state.capsule_radius[i]))),
-                color=CAPSULE_COLOUR, opacity=0.25 if self.urdf is not None else 0.9))
+            axis = state.capsule_p1_local[i] - state.capsule_p0_local[i]
+            mesh = _mesh_arrays(draw.capsule_mesh(float(np.linalg.norm(axis)), float(state.capsule_radius[i])))
+            look = {"color": CAPSULE_COLOUR, "opacity": 0.25 if self.urdf is not None else 0.9}
+            parent = frames.get(state.capsules[i].joint)
+            if parent is not None:  # capsule ends are fixed in the joint frame = the child link's frame
+                self.capsules.append(server.scene.add_mesh_simple(
+                    f"{parent.name}/capsule_{i}", *mesh, position=state.capsule_p0_local[i],
+                    wxyz=draw.wxyz_z_to(axis), **look))
+                self.capsule_attached[i] = True
+            else:
+                self.capsules.append(server.scene.add_mesh_simple(f"{ROOT}/capsules/{i}", *mesh, **look))
         self.zone_nodes: dict[str, object] = {}
-        self._q_drawn: np.ndarray | None = None
+        self._capsules_drawn: tuple[np.ndarray, np.ndarray] | None = None
+        """Capsule ends (p0, p1) as last sent, shape (r, 3) each [m]."""
         self._highlighted: tuple[str, ...] = ()
         self.redraw_zones()
+        if self.urdf is not None:  # the fixed joints' frames are placed once, here
+            self.poser.pose(urdf_joint_values(state.model, np.asarray(state.q, dtype=float), self.joint_names))
 
     def redraw_zones(self) -> None:
         for node in self.zone_nodes.values():
@@ -111,17 +220,21 @@ class ArmView:
     def update(self, snapshot: LoopSnapshot, q: np.ndarray, capsules) -> None:
         """``q``: pinocchio configuration; ``capsules``: ``(p0, p1, radius)`` world frame [m]."""
         self.highlight(snapshot.report.binding if snapshot.report is not None else ())
-        q = np.asarray(q, dtype=float)
-        if self._q_drawn is not None and self._q_drawn.shape == q.shape and \
-                float(np.max(np.abs(q - self._q_drawn), initial=0.0)) < REDRAW_TOLERANCE_RAD:
-            return
-        self._q_drawn = q.copy()
         if self.urdf is not None:
-            self.urdf.update_cfg(urdf_joint_values(self.teleop.state.model, q, self.joint_names))
+            self.poser.pose(urdf_joint_values(self.teleop.state.model, np.asarray(q, dtype=float), self.joint_names))
         p0, p1, _ = capsules
-        for i, node in enumerate(self.capsules):
+        p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+        drawn = self._capsules_drawn
+        if drawn is None or drawn[0].shape != p0.shape:
+            moved = np.ones(len(self.capsules), dtype=bool)
+            drawn = self._capsules_drawn = (p0.copy(), p1.copy())
+        else:
+            moved = np.maximum(np.abs(p0 - drawn[0]).max(axis=1), np.abs(p1 - drawn[1]).max(axis=1)) >= REDRAW_TOLERANCE_M
+        for i in np.flatnonzero(moved[:len(self.capsules)] & ~self.capsule_attached):
+            node = self.capsules[i]
             node.position = p0[i]
             node.wxyz = draw.wxyz_z_to(p1[i] - p0[i])
+            drawn[0][i], drawn[1][i] = p0[i], p1[i]
 
     def remove(self) -> None:
         for node in [*self.zone_nodes.values(), *self.capsules, self.grid]:

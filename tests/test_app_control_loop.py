@@ -40,6 +40,47 @@ def test_guard_invariants(target, previous):
     assert np.linalg.norm(v - previous) <= 0.004 + 1e-12
 
 
+def guard_reference(v_target, v_previous, dt_s, max_speed, max_accel):
+    """The guard written with numpy norms (its first implementation): the oracle."""
+    v_previous = np.asarray(v_previous, dtype=float)
+    v_target = np.asarray(v_target, dtype=float)
+    if v_target.shape != v_previous.shape or not np.all(np.isfinite(v_target)):
+        v_target = np.zeros_like(v_previous)
+    with np.errstate(over="ignore"):
+        speed = float(np.linalg.norm(v_target))
+    if not np.isfinite(speed):
+        v_target, speed = np.zeros_like(v_previous), 0.0
+    if speed > max_speed:
+        v_target = v_target * (max_speed / speed)
+    change = v_target - v_previous
+    size = float(np.linalg.norm(change))
+    if size > max_accel * dt_s:
+        change = change * (max_accel * dt_s / size)
+    return v_previous + change
+
+
+# below 1e150 the reference's squared norm cannot overflow (see the test after this one)
+components = st.one_of(st.floats(-1e150, 1e150), st.sampled_from([np.nan, np.inf, -np.inf]))
+
+
+@given(st.lists(components, min_size=2, max_size=3), st.lists(st.floats(-0.25, 0.25), min_size=3, max_size=3),
+       st.sampled_from([0.001, 0.002, 0.01]))
+def test_guard_equals_the_numpy_reference(target, previous, dt_s):
+    previous = np.array(previous)
+    v = guard_command(np.array(target), previous, dt_s, 0.25, 2.0)
+    assert v.shape == previous.shape
+    np.testing.assert_allclose(v, guard_reference(np.array(target), previous, dt_s, 0.25, 2.0), rtol=1e-12, atol=1e-15)
+
+
+def test_guard_caps_a_huge_finite_target_along_its_direction():
+    # the reference's squared norm overflowed for 1e154 and dropped it as garbage; hypot does
+    # not overflow, so it is capped like any other command (only the acceleration step moves)
+    v = guard_command(np.array([0.0, 0.0, 1.34e154]), np.zeros(3), 0.001, 0.25, 2.0)
+    np.testing.assert_allclose(v, [0.0, 0.0, 0.002])
+    v = guard_command(np.array([1.5e308, 1.5e308, 0.0]), np.array([0.0, 0.1, 0.0]), 0.001, 0.25, 2.0)
+    np.testing.assert_allclose(v, [0.0, 0.098, 0.0])  # the norm overflows even for hypot: zero target
+
+
 def test_stats_percentiles():
     stats = LoopStats(window=100)
     for period in [0.002] * 98 + [0.010, 0.012]:
@@ -195,3 +236,64 @@ def test_an_overrunning_loop_integrates_the_time_that_passed_up_to_10_ms():
     assert dts.min() >= loop.settings.dt_s - 1e-12 and dts.max() <= 0.010 + 1e-12
     assert np.median(dts) > 0.005  # not the nominal 2 ms: the robot keeps real time
     assert dts.sum() == pytest.approx(wall, rel=0.25)
+
+
+def test_stats_running_rate_matches_the_window_mean_after_wrapping():
+    stats = LoopStats(window=100)
+    rng = np.random.default_rng(3)
+    periods = rng.uniform(0.0008, 0.004, 1234)
+    for period in periods:
+        stats.add(period, late_s=period / 2)
+    assert stats.rate_hz == pytest.approx(1.0 / periods[-100:].mean(), rel=1e-12)
+    s = stats.summary()
+    assert s["rate_hz"] == pytest.approx(stats.rate_hz, rel=1e-12)
+    assert s["late_p99_ms"] == pytest.approx(np.percentile(periods[-100:] / 2, 99) * 1e3)
+    assert LoopStats().rate_hz == 0.0
+
+
+class SimulatedClock:
+    """Time that passes only when the loop sleeps or the robot works."""
+
+    def __init__(self):
+        self.now_s = 50.0
+        self.sleeps: list[float] = []
+
+    def __call__(self) -> float:
+        return self.now_s
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        self.now_s += seconds + 60e-6  # a sleep wakes 60 us late
+
+
+class StallingRobot(SlowRobot):
+    """Works 200 us a step, 6 ms every 100th step; stops the loop after ``steps`` steps."""
+
+    def __init__(self, clock: SimulatedClock, loop_ref: list, steps: int):
+        super().__init__()
+        self.clock, self.loop_ref, self.steps = clock, loop_ref, steps
+
+    def step(self, v, dt_s, method="anticipative"):
+        self.dts.append(dt_s)
+        self.clock.now_s += 0.006 if len(self.dts) % 100 == 0 else 0.0002
+        if len(self.dts) == self.steps:
+            self.loop_ref[0]._stop.set()
+
+
+def test_the_loop_catches_up_after_a_stall_on_a_simulated_clock():
+    clock = SimulatedClock()
+    loop_ref: list = []
+    robot = StallingRobot(clock, loop_ref, steps=1000)
+    loop = ControlLoop(robot, LoopSettings(rate_hz=1000.0))
+    loop_ref.append(loop)
+    loop.clock, loop.sleep = clock, clock.sleep
+    start_s = clock.now_s
+    loop._run()
+    assert robot.dts == [0.001] * 1000  # every tick a nominal step, also around the stalls
+    assert loop.stats.overruns == 0
+    # 1000 ticks in 1000 periods of wall time (plus the last tick's work and the stall): held
+    assert clock.now_s - start_s == pytest.approx(1.0, abs=0.007)
+    summary = loop.stats.summary()
+    assert summary["rate_hz"] == pytest.approx(1000.0, rel=0.01)
+    assert summary["max_ms"] == pytest.approx(6.0)  # the stall shows in the periods
+    assert loop.snapshot().t_s == pytest.approx(1.0)

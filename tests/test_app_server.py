@@ -172,3 +172,25 @@ def test_urdf_joint_values_continuous_and_missing_joints():
     q = np.array([np.cos(2.5), np.sin(2.5), -0.7])
     values = urdf_joint_values(model, q, ("elbow", "finger", "wrist"))
     np.testing.assert_allclose(values, [-0.7, 0.0, 2.5])
+
+
+def test_settle_heap_collects_the_garbage_then_freezes_what_lives():
+    import gc
+    import weakref
+
+    from cobotsafety.app.server import settle_heap
+
+    class Node:
+        pass
+
+    garbage = Node()
+    garbage.self = garbage  # a cycle: only the cyclic collector frees it
+    dead = weakref.ref(garbage)
+    del garbage
+    try:
+        settle_heap()
+        assert dead() is None
+        assert gc.get_freeze_count() > 1000
+    finally:
+        gc.unfreeze()
+    assert gc.get_freeze_count() == 0

@@ -4,7 +4,10 @@ clients), drag-to-motion latency, and start-up time from the command to the firs
 
 The wire figures come in four phases of ``--seconds`` each: ``idle`` (replay paused, no input)
 and ``moving`` (replay playing, the gizmo pulled round a 10 cm circle at 20 Hz), each with 1 and
-with 8 counting clients connected beside the browser tab. Each phase resets the loop statistics.
+with 8 counting clients connected beside the browser tab. Each phase resets the loop statistics:
+``loop_rate_hz`` is ticks per wall-clock second, the ``period_*`` figures are the wall-clock
+times between tick starts, ``tick_late_p99_ms`` how late a tick started after its deadline, and
+``overruns`` the ticks that dropped missed ones (``cobotsafety.app.tick_schedule``).
 
 Needs Chromium at ``--chromium`` (default /usr/bin/chromium) and the ``playwright`` package.
 """
@@ -144,6 +147,7 @@ def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
             "mesh_messages_per_s": round(float(np.max(mesh_per_s)), 2),
             "loop_rate_hz": round(stats["rate_hz"], 1), "period_p50_ms": round(stats["p50_ms"], 3),
             "period_p99_ms": round(stats["p99_ms"], 3), "period_max_ms": round(stats["max_ms"], 3),
+            "tick_late_p99_ms": round(stats["late_p99_ms"], 3), "overruns": int(stats["overruns"]),
             "render_frames_per_s": round(frames / seconds, 1), "load_average_1min": round(os.getloadavg()[0], 2)}
 
 
