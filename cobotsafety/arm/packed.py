@@ -29,6 +29,7 @@ from cobotsafety.arm.constraints import ArmConstraint, JointPositionLimits, Reac
 from cobotsafety.arm.packed_kernel import (METHOD_ANTICIPATIVE, METHOD_STOP, STATUS_BOX_TOUCHED, STATUS_CONTRADICTION,
                                            STATUS_DONE, packed_step, tag_of)
 from cobotsafety.arm.packed_kinematics import JOINT_CODES, joint_axis_local
+from cobotsafety.arm.packed_projection import RELAX_HARD_CONTRADICT, RELAX_STAGE_INFEASIBLE
 from cobotsafety.arm.packed_measures import BOX, CAPSULE, HALFSPACE, HUMAN, JOINT, REACH, TABLE
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.step import ArmParams, ArmStepInfo, step, task_axes
@@ -44,6 +45,20 @@ _REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limit
 _EMPTY, _EMPTY3, _EYE3 = np.zeros(0), np.zeros((0, 3)), np.eye(3)
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 _HUMAN_ARRAYS = ("p0", "p1", "radius", "v0", "v1")
+
+
+def _contradiction_reason(detail: np.ndarray) -> str:
+    """``step.step``'s reason when the relaxation itself failed, from the kernel's ``detail``
+    (the message of the ``InfeasibleConstraintsError`` that ``projection.relax`` raises)."""
+    status, rows, advance, stopped = detail.tolist()
+    if status == RELAX_HARD_CONTRADICT:
+        error = f"the {int(rows)} hard half-spaces contradict each other"
+    elif status == RELAX_STAGE_INFEASIBLE:
+        error = (f"no velocity satisfies the {int(rows)} half-spaces at once "
+                 f"(largest required advance {advance:.3g}); the bounds contradict each other")
+    else:
+        error = "the relaxation did not meet its hard rows (ill-conditioned rows)"
+    return f"limits contradict ({error}): " + ("stopped" if stopped else "approaching nothing")
 
 
 def params_vector(params: ArmParams) -> np.ndarray:
@@ -328,7 +343,7 @@ class PackedArm:
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else _EYE3
         try:
             (status, q_next, qdot, command, stopped, normals, bounds, tags, codes, relaxed_rows, worst_row,
-             worst_violation, net_scale, p_ee, R_ee, J6, p0, p1, origins) = packed_step(
+             worst_violation, net_scale, p_ee, R_ee, J6, p0, p1, origins, detail) = packed_step(
                 np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
                 _METHODS[method], R_ref, with_orientation, *self._robot_args, *self._capsule_args,
                 float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1, hr,
@@ -346,7 +361,9 @@ class PackedArm:
             command_full = np.zeros(3)
             command_full[:k] = command
         reason = ""
-        if relaxed_rows:
+        if detail[0]:
+            reason = _contradiction_reason(detail)
+        elif relaxed_rows:
             reason = (f"retreats contradict: relaxed {relaxed_rows} row(s), "
                       f"at most {worst_violation:.3g} m/s ({self._namer(pack)[0](tags[worst_row])})")
         elif stopped and method == "anticipative":

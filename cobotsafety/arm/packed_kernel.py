@@ -14,7 +14,7 @@ import numpy as np
 from cobotsafety.arm.mapping_kernel import mapping_kernel
 from cobotsafety.arm.packed_kinematics import attached_point, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.packed_measures import JOINT, capsule_points, constraint_distances, measure_rows
-from cobotsafety.arm.packed_projection import relax_kernel
+from cobotsafety.arm.packed_projection import RELAX_DONE, RELAX_OTHER, relax_kernel, slide_kernel
 from cobotsafety.projection import RELAXATION_COMMAND_WEIGHT
 from cobotsafety.arm.step import NEGLIGIBLE_NORMAL, SECONDARY_RELATIVE_TOLERANCE
 
@@ -62,6 +62,55 @@ def kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, pla
 
 
 @numba.njit(cache=True)
+def filter_kernel(vk, N, bnd, v_previous, with_previous: bool, dt_s: float, max_accel: float,
+                  detail):  # pragma: no cover - compiled
+    """``step.anticipative_command``: ``(command (k,), violation (m,), ok)``. The limitations hard,
+    the acceleration bound soft; when the retreats contradict each other they give way too,
+    down to approaching nothing; when that relaxation itself fails (degenerate rows): approach
+    nothing, else stop, its ``relax_kernel`` status, rows and advance in ``detail[:3]`` and
+    ``detail[3]`` = 1 for the stop. ``ok`` False: a case the kernel leaves to the reference."""
+    k = vk.shape[0]
+    n_hs = N.shape[0]
+    n_acc = 2 * k if with_previous and np.isfinite(max_accel) else 0
+    N_all = np.zeros((n_hs + n_acc, k))
+    b_all = np.empty(n_hs + n_acc)
+    N_all[:n_hs] = N
+    b_all[:n_hs] = bnd
+    soft = np.zeros(n_hs + n_acc, dtype=np.bool_)
+    floors = np.full(n_hs + n_acc, -np.inf)
+    if n_acc:
+        change = max_accel * dt_s
+        for a in range(k):
+            N_all[n_hs + a, a] = 1.0
+            N_all[n_hs + k + a, a] = -1.0
+            b_all[n_hs + a] = v_previous[a] - change
+            b_all[n_hs + k + a] = -v_previous[a] - change
+            soft[n_hs + a] = True
+            soft[n_hs + k + a] = True
+    command, violation_all, status, _, _ = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
+    if status == RELAX_DONE:
+        return command, np.zeros(n_hs), True
+    # The limitations contradict each other: their retreats give way too.
+    for i in range(n_hs):
+        if bnd[i] > 0.0:
+            soft[i] = True
+            floors[i] = 0.0
+    command, violation_all, status, rows, advance = relax_kernel(vk, N_all, b_all, soft, floors,
+                                                                 RELAXATION_COMMAND_WEIGHT)
+    if status == RELAX_DONE:
+        return command, violation_all[:n_hs].copy(), True
+    if status == RELAX_OTHER:
+        return command, np.zeros(n_hs), False
+    detail[0], detail[1], detail[2] = status, rows, advance
+    violation = np.maximum(bnd, 0.0)
+    command, status, _ = slide_kernel(vk, N, bnd - violation)
+    if status != 0:
+        command = np.zeros(k)
+        detail[3] = 1.0
+    return command, violation, True
+
+
+@numba.njit(cache=True)
 def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int, R_ref, with_orientation: bool,
                 robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
                 cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim, lever_m: float,
@@ -71,9 +120,10 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
 
     Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), tags (m, 3),
     binding_codes (b,), relaxed_rows, worst_row, worst_violation, net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1,
-    origins)`` with the kinematics at ``q_next``: ``binding_codes`` the binding rows' tags as ``tag_code``,
+    origins, detail (4,))`` with the kinematics at ``q_next``: ``binding_codes`` the binding rows' tags as ``tag_code``,
     ``relaxed_rows`` how many rows' retreats were relaxed, the worst by ``worst_violation`` [m/s] at
-    ``worst_row`` (-1: none).
+    ``worst_row`` (-1: none); ``detail``: when the relaxation itself failed, its ``relax_kernel``
+    status, rows and advance, and 1 if approaching nothing was impossible too (zeros otherwise).
     """
     (max_speed, width_m, width_rad, activation_m, w_threshold, damping_max, orientation_gain,
      centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain, max_accel) = (
@@ -81,6 +131,7 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
         params[9], params[10], params[11], params[12])
     nv = robot_int[0]
     k = vk.shape[0]
+    detail = np.zeros(4)
     oR, op, p_ee, R_ee, J6, p0, p1, origins = kinematics(q, robot_int, jtype, axes, parent, idx_q, idx_v, placement_R,
                                                         placement_t, support, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l)
     # ---- mapping (``step.mapping``) -----------------------------------------------------------
@@ -107,7 +158,7 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
     if not ok:
         return (STATUS_BOX_TOUCHED, q, np.zeros(nv), empty_f, False, np.zeros((0, k)), empty_f,
                 np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64), 0, -1, 0.0, 1.0, p_ee, R_ee, J6, p0, p1,
-                origins)
+                origins, detail)
     dist, A, rate, angular, tag = dist[:m], A[:m], rate[:m], angular[:m], tag[:m]
     buffer = np.where(angular, buffer_rad, buffer_m)
     # ---- secondary-task scale (``step.secondary_scale``) ---------------------------------------
@@ -183,34 +234,10 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
     stopped = False
     violation = np.zeros(N.shape[0])
     if method == METHOD_ANTICIPATIVE:
-        n_hs = N.shape[0]
-        n_acc = 2 * k if with_previous and np.isfinite(max_accel) else 0
-        N_all = np.zeros((n_hs + n_acc, k))
-        b_all = np.empty(n_hs + n_acc)
-        N_all[:n_hs] = N
-        b_all[:n_hs] = bnd
-        soft = np.zeros(n_hs + n_acc, dtype=np.bool_)
-        floors = np.full(n_hs + n_acc, -np.inf)
-        if n_acc:
-            change = max_accel * dt_s
-            for a in range(k):
-                N_all[n_hs + a, a] = 1.0
-                N_all[n_hs + k + a, a] = -1.0
-                b_all[n_hs + a] = v_previous[a] - change
-                b_all[n_hs + k + a] = -v_previous[a] - change
-                soft[n_hs + a] = True
-                soft[n_hs + k + a] = True
-        command, violation_all, status = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
-        if status != 0:  # the limitations contradict each other: their retreats give way too
-            for i in range(n_hs):
-                if bnd[i] > 0.0:
-                    soft[i] = True
-                    floors[i] = 0.0
-            command, violation_all, status = relax_kernel(vk, N_all, b_all, soft, floors, RELAXATION_COMMAND_WEIGHT)
-            if status != 0:  # the approach-nothing rows alone contradict (rounding): the reference says why
-                return (STATUS_CONTRADICTION, q, np.zeros(nv), command, False, N, bnd, tags, np.zeros(0, dtype=np.int64),
-                        0, -1, 0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins)
-            violation = violation_all[:n_hs].copy()
+        command, violation, ok = filter_kernel(vk, N, bnd, v_previous, with_previous, dt_s, max_accel, detail)
+        if not ok:  # a zero normal in the relaxation's stage: the reference says why
+            return (STATUS_CONTRADICTION, q, np.zeros(nv), command, False, N, bnd, tags, np.zeros(0, dtype=np.int64),
+                    0, -1, 0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins, detail)
         binding = N @ command - (bnd - violation) <= BINDING_TOLERANCE
         stopped = np.any(vk != 0.0) and np.all(np.abs(command) <= 1e-12)
         qdot = M @ command if stopped else M @ command + c
@@ -255,7 +282,7 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
                                              lower, upper, limited, hp0, hp1, hr, 0.0)
             if not ok:
                 return (STATUS_BOX_TOUCHED, q, qdot, command, stopped, N, bnd, tags, np.zeros(0, dtype=np.int64), 0, -1,
-                        0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins)
+                        0.0, 1.0, p_ee, R_ee, J6, p0, p1, origins, detail)
             for i in range(part.shape[0]):
                 if after[i] < min(part[i], 0.0) - CROSSING_TOLERANCE_M:
                     admissible = False
@@ -284,4 +311,4 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
             if violation[i] > worst_violation:
                 worst_row, worst_violation = i, violation[i]
     return (STATUS_DONE, q_next, qdot * net_scale, command * net_scale, stopped, N, bnd, tags, codes, relaxed_rows,
-            worst_row, worst_violation, net_scale, p_ee2, R_ee2, J62, p02, p12, origins2)
+            worst_row, worst_violation, net_scale, p_ee2, R_ee2, J62, p02, p12, origins2, detail)

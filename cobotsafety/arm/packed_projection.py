@@ -88,13 +88,15 @@ def _dual_active_set(G, h, tol: float):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def slide_kernel(v, N, b):  # pragma: no cover - compiled
-    """``(slide(v, N, b), status)``; ``N`` (m, n), ``b`` (m,), everything finite."""
+    """``(slide(v, N, b), status, advance)``; ``N`` (m, n), ``b`` (m,), everything finite.
+    status 1: infeasible (``advance``: the largest required advance of the normalised rows, as
+    the reference's message says); 3: a zero normal with a positive bound."""
     m, n = N.shape
     if m == 0:
-        return v.copy(), 0
+        return v.copy(), 0, 0.0
     h = b - N @ v
     if np.all(h <= FEASIBILITY_TOLERANCE):
-        return v.copy(), 0
+        return v.copy(), 0, 0.0
     G = np.empty((m, n))
     hs = np.empty(m)
     for i in range(m):
@@ -104,35 +106,42 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
         scale = np.sqrt(s)
         if scale == 0.0:
             if h[i] > FEASIBILITY_TOLERANCE:
-                return np.zeros(n), 1
+                return np.zeros(n), 3, 0.0
             G[i] = N[i]
             hs[i] = -np.inf
         else:
             for k in range(n):
                 G[i, k] = N[i, k] / scale
             hs[i] = h[i] / scale
-    scale_h = max(1.0, np.max(hs))
+    advance = np.max(hs)
+    scale_h = max(1.0, advance)
     x, status = _dual_active_set(G, hs, 1e-12 * scale_h)
     if status != 0:
         x, status = _dual_active_set(G, hs, FEASIBILITY_TOLERANCE * scale_h)
     if status != 0:
-        return np.zeros(n), 1
-    return v + x, 0
+        return np.zeros(n), 1, advance
+    return v + x, 0, advance
+
+
+RELAX_DONE, RELAX_HARD_CONTRADICT, RELAX_STAGE_INFEASIBLE, RELAX_ILL_CONDITIONED, RELAX_OTHER = 0, 1, 2, 3, 4
 
 
 @numba.njit(cache=True)
 def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - compiled
-    """``(projection.relax(v, N, b, soft, floors), violation (m,), status)``: the same two stages
-    (least-squares violation of the soft rows, each slack capped at ``b - floor``, then
-    ``slide`` with their bounds lowered) and the same final check; ``floors`` (m,) with -inf for
-    none. status 1: the hard rows contradict each other (or the stages were ill-conditioned)."""
+    """``(projection.relax(v, N, b, soft, floors), violation (m,), status, rows, advance)``: the
+    same two stages (least-squares violation of the soft rows, each slack capped at
+    ``b - floor``, then ``slide`` with their bounds lowered) and the same final check; ``floors``
+    (m,) with -inf for none. ``status`` says which ``InfeasibleConstraintsError`` the reference
+    raises: ``RELAX_HARD_CONTRADICT`` (no soft rows; ``rows`` = m), ``RELAX_STAGE_INFEASIBLE``
+    (the least-squares stage's ``slide``: its ``rows`` and largest required ``advance``),
+    ``RELAX_ILL_CONDITIONED`` (the final check), ``RELAX_OTHER`` (a zero normal in the stage)."""
     m, n = N.shape
     violation = np.zeros(m)
-    x, status = slide_kernel(v, N, b)
+    x, status, advance = slide_kernel(v, N, b)
     if status == 0:
-        return x, violation, 0
+        return x, violation, RELAX_DONE, 0, 0.0
     if not np.any(soft):
-        return x, violation, 1
+        return x, violation, RELAX_HARD_CONTRADICT, m, 0.0
     soft_index = np.full(m, -1, dtype=np.int64)
     ks = 0
     for i in range(m):
@@ -156,9 +165,9 @@ def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - co
     for c in range(nc):
         G[m + c, n + soft_index[capped[c]]] = -1.0
         h[m + c] = floors[capped[c]] - b[capped[c]]
-    x, status = slide_kernel(np.zeros(n + ks), G, h)
+    x, status, advance = slide_kernel(np.zeros(n + ks), G, h)
     if status != 0:
-        return x[:n], violation, 1
+        return x[:n], violation, RELAX_STAGE_INFEASIBLE if status == 1 else RELAX_OTHER, m + nc, advance
     v_least = x[:n] / weight
     lowered = b.copy()
     for i in range(m):
@@ -168,14 +177,14 @@ def relax_kernel(v, N, b, soft, floors, weight: float):  # pragma: no cover - co
                 s += N[i, j] * v_least[j]
             violation[i] = max(b[i] - s, 0.0)
             lowered[i] = b[i] - violation[i]
-    x, status = slide_kernel(v, N, lowered)
+    x, status, advance = slide_kernel(v, N, lowered)
     if status != 0:
         x = v_least
     # Never a command that breaks a hard row or a floor (an ill-conditioned stage).
     rates = N @ x
     for i in range(m):
         if rates[i] < b[i] - violation[i] - 1e-6 * max(1.0, abs(b[i])):
-            return x, violation, 1
+            return x, violation, RELAX_ILL_CONDITIONED, 0, 0.0
         if soft[i] and np.isfinite(floors[i]) and rates[i] < floors[i] - 1e-6 * max(1.0, abs(floors[i])):
-            return x, violation, 1
-    return x, violation, 0
+            return x, violation, RELAX_ILL_CONDITIONED, 0, 0.0
+    return x, violation, RELAX_DONE, 0, 0.0

@@ -265,6 +265,24 @@ def filter_command(vk: np.ndarray, hs: HalfSpaces, v_previous: np.ndarray | None
     return command, violation[:m]
 
 
+def anticipative_command(vk: np.ndarray, hs: HalfSpaces, v_previous: np.ndarray | None, dt_s: float,
+                         params: ArmParams) -> tuple[np.ndarray, np.ndarray, str]:
+    """``filter_command``, and when the relaxation itself fails (degenerate rows): approach
+    nothing, else stop. Returns the command (k,), each row's relaxation (m,) and, in that
+    case, the reason ("" otherwise)."""
+    try:
+        command, violation = filter_command(vk, hs, v_previous, dt_s, params)
+        return command, violation, ""
+    except InfeasibleConstraintsError as error:
+        violation = np.maximum(hs.bounds, 0.0)
+        reason = f"limits contradict ({error}): approaching nothing"
+        try:
+            command = slide(vk, hs.normals, hs.bounds - violation)
+        except (InfeasibleConstraintsError, ValueError):
+            command, reason = np.zeros_like(vk), f"limits contradict ({error}): stopped"
+        return command, violation, reason
+
+
 def _admissible(before: np.ndarray, after: np.ndarray) -> bool:
     return bool(np.all(after >= np.minimum(before, 0.0) - CROSSING_TOLERANCE_M))
 
@@ -340,15 +358,7 @@ def step(state: RobotState, v_desired: np.ndarray, dt_s: float, constraints: lis
         if v_previous is not None:
             previous = np.asarray(v_previous, dtype=float).reshape(-1)[axes]
             previous = previous if np.all(np.isfinite(previous)) else np.zeros_like(vk)
-        try:
-            command, violation = filter_command(vk, hs, previous, dt_s, params)
-        except InfeasibleConstraintsError as error:  # degenerate rows: approach nothing, else stop
-            violation = np.maximum(hs.bounds, 0.0)
-            reason = f"limits contradict ({error}): approaching nothing"
-            try:
-                command = slide(vk, hs.normals, hs.bounds - violation)
-            except (InfeasibleConstraintsError, ValueError):
-                command, reason = np.zeros_like(vk), f"limits contradict ({error}): stopped"
+        command, violation, reason = anticipative_command(vk, hs, previous, dt_s, params)
         slack = hs.normals @ command - (hs.bounds - violation)
         binding = tuple(name for name, gap in zip(hs.names, slack) if gap <= BINDING_TOLERANCE)
         relaxed = bool(np.any(violation > 0.0))
