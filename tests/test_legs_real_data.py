@@ -42,14 +42,15 @@ def test_unseen_labelled_bag_with_a_background(bags):
 
 def test_nobody_in_view_gives_fewer_detections_than_the_paper_rule(bags):
     """Trained without the right-hand scanner of the negative bag, scored on it (no background:
-    the scanners move). Chair and table legs remain leg-like: ~4 per scan at 6 m (the paper's
-    rule: ~10), the weak point of a single-scan detector without a background."""
+    the scanners move). Chair and table legs remain leg-like: ~5 per scan at 6 m (4.9 at the
+    CV-chosen 0.55; the paper's rule: ~10), the weak point of a single-scan detector without a
+    background."""
     held = "negative_2.bag/right_scan"
     forest = held_out_forest(bags, [held])
     learned = train_legs.score_bag(bags[held], lambda s: learned_legs(s, 6.0, None, forest=forest))
     paper = train_legs.score_bag(bags[held], lambda s: detect_legs(s, 6.0, None, method="paper"))
     assert learned["labelled"] == 0
-    assert learned["false"] / learned["scans"] <= 4.5
+    assert learned["false"] / learned["scans"] <= 5.0
     assert learned["false"] <= 0.5 * paper["false"]
 
 
