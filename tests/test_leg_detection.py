@@ -149,3 +149,19 @@ def test_background_share_counts_each_cluster_own_returns_only():
     legs = learned_legs(scan, 6.0, background, threshold_probability=-1.0)
     assert legs.shape == (1, 2)
     assert abs(np.hypot(*legs[0]) - (1.0 + 0.06)) < 1e-9  # the 1 m cluster, eq. 3
+
+
+def test_a_cluster_counts_with_a_cluster_worth_of_returns_in_front_of_the_background():
+    """MIN_CLUSTER_POINTS returns in front of the background are enough (a leg half over a spot
+    where someone stood still); fewer, and not more than half, are not (edge flicker)."""
+    inc = math.radians(0.5)
+    wall = np.full(30, 4.0)
+    for in_front, expected in ((3, 1), (2, 0)):
+        # One 10-return cluster at ~1 m; the empty scene had the 4 m wall behind its first
+        # in_front beams and the rest of it (someone standing still) as it is now.
+        ranges = np.r_[wall, np.full(in_front, 1.0), np.full(10 - in_front, 1.05), wall]
+        background = np.r_[wall, np.full(in_front, 4.0), np.full(10 - in_front, 1.05), wall]
+        scan = LaserScan(-inc * (ranges.size - 1) / 2, inc, 0.02, 20.0, ranges)
+        assert segment(scan).count == 3
+        legs = learned_legs(scan, 6.0, background, threshold_probability=-1.0)
+        assert legs.shape == (expected, 2)

@@ -42,6 +42,36 @@ def test_segmentation_splits_at_jumps_and_skips_no_returns():
     assert abs(np.hypot(*cx[0]) - 2.0) < 0.01
 
 
+def centroids_by_loop(clusters):
+    """The oracle: each cluster's own returns, averaged one cluster at a time."""
+    return np.array([[clusters.x_m[a:b].mean(), clusters.y_m[a:b].mean()]
+                     for a, b in zip(clusters.starts.tolist(), clusters.stops.tolist())]).reshape(-1, 2)
+
+
+def test_centroids_leave_out_the_dropped_clusters_between():
+    """A 2-return piece (dropped: too few) between two clusters is no part of either centroid."""
+    ranges = np.r_[np.full(10, 2.0), [1.0, 1.0], np.full(10, 3.0), [0.5, 0.5]]
+    clusters = segment(scan_of(ranges))
+    assert clusters.count == 2
+    np.testing.assert_allclose(clusters.centroids(), centroids_by_loop(clusters), rtol=0, atol=1e-12)
+    assert abs(np.hypot(*clusters.centroids()[0]) - 2.0) < 0.01
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.one_of(st.floats(0.05, 8.0), st.sampled_from([0.0, np.nan, np.inf])), min_size=2, max_size=300),
+       st.floats(0.001, 0.05))
+def test_centroids_equal_a_loop_over_clusters(ranges, inc):
+    clusters = segment(scan_of(ranges, inc))
+    np.testing.assert_allclose(clusters.centroids(), centroids_by_loop(clusters), rtol=0, atol=1e-9)
+
+
+def test_centroids_on_real_scans_equal_a_loop_over_clusters(shared_data):
+    bag = shared_data / "leg_tracker" / "positive_2_extracted.bag"
+    for scan in read_laser_scans(bag, "/training_scan"):
+        clusters = segment(scan)
+        np.testing.assert_allclose(clusters.centroids(), centroids_by_loop(clusters), rtol=0, atol=1e-9)
+
+
 def test_a_gap_wider_than_the_jump_splits_a_wall():
     inc = math.radians(0.5)
     ranges = np.full(200, 1.0)

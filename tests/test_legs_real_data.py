@@ -28,21 +28,39 @@ def held_out_forest(bags, held_out: list[str]) -> LegForest:
                                   bundled.threshold_probability, bundled.threshold_probability_no_background)
 
 
-def test_unseen_labelled_bag_with_a_background(bags):
-    """Trained on positive_2 + negative_2, scored on positive_1 (6 m, per-beam background)."""
-    held = "positive_1_extracted.bag"
+@pytest.mark.parametrize("held, labelled", [("positive_1_extracted.bag", 324), ("positive_2_extracted.bag", 116)])
+def test_unseen_labelled_bag_with_a_background(bags, held, labelled):
+    """Trained without the bag (the other positive bag, negative_2, the rendered examples),
+    scored on it (6 m, per-beam background): the aim's recall. False detections are counted
+    where the labels are complete: leg_tracker labelled every cluster within +-15 deg and 5 m
+    of the scanner and nothing elsewhere (positive_2 has unlabelled people beside the sector)."""
     forest = held_out_forest(bags, [held])
     scans = bags[held]
     background = estimate_background([s for s, _ in scans])
-    score = train_legs.score_bag(scans, lambda s: learned_legs(s, 6.0, background, forest=forest))
-    assert score["labelled"] == 324
-    assert score["found"] / score["labelled"] >= 0.80
-    assert score["false"] / score["scans"] <= 0.5
+    sector = []
+
+    def detect(scan):
+        legs = learned_legs(scan, 6.0, background, forest=forest)
+        sector.append(legs[(np.abs(np.arctan2(legs[:, 1], legs[:, 0])) <= np.radians(15.0))
+                           & (np.hypot(legs[:, 0], legs[:, 1]) <= 5.0)])
+        return legs
+
+    score = train_legs.score_bag(scans, detect)
+    assert score["labelled"] == labelled
+    assert score["found"] / score["labelled"] >= 0.85
+    false_in_sector = 0
+    for (_, labels), legs in zip(scans, sector):
+        if legs.size:
+            far = np.linalg.norm(legs[:, None] - labels[None], axis=-1).min(axis=1) > train_legs.HIT_RADIUS_M
+            false_in_sector += int(far.sum())
+    assert false_in_sector / score["scans"] <= 0.1
+    if held == "positive_1_extracted.bag":  # few people outside the sector there
+        assert score["false"] / score["scans"] <= 0.5
 
 
 def test_nobody_in_view_gives_fewer_detections_than_the_paper_rule(bags):
     """Trained without the right-hand scanner of the negative bag, scored on it (no background:
-    the scanners move). Chair and table legs remain leg-like: ~4 per scan at 6 m (the paper's
+    the scanners move). Chair and table legs remain leg-like: ~3 per scan at 6 m (the paper's
     rule: ~10), the weak point of a single-scan detector without a background."""
     held = "negative_2.bag/right_scan"
     forest = held_out_forest(bags, [held])

@@ -157,6 +157,28 @@ def test_unseen_track_coasts_then_dies_and_clutter_is_never_confirmed():
     assert tracker.update(t0 + 1.0, np.zeros((0, 2))) == []
 
 
+@pytest.mark.parametrize("packed", [True, False])
+def test_a_stray_detection_never_takes_a_leg_from_a_confirmed_person(packed):
+    """A person stands with legs 0.3 m apart (mid-stride); one scan shows a stray leg-like blob
+    0.21 m beside one leg (a tentative track is born there), then nothing there. Unseen, the
+    tentative track's covariance grows until that leg is a cheaper Mahalanobis match for it
+    than for the person's torso 0.15 m away: the confirmed person must still get both legs
+    (confirmed tracks are assigned first)."""
+    tracker = PersonTracker(packed=packed)
+    legs = np.array([[0.6, -0.32], [0.6, -0.02]])
+    t = 0.0
+    for _ in range(20):
+        tracker.update(t, legs)
+        t += 0.02
+    assert len(tracker.update(t, np.vstack([legs, [[0.62, 0.19]]]))) == 2  # the stray: a new track
+    for _ in range(13):  # just under tentative_delete_after_s
+        t += 0.02
+        people = tracker.update(t, legs)
+        confirmed = [p for p in people if p.confirmed]
+        assert len(confirmed) == 1 and len(confirmed[0].leg_xy_m) == 2
+        np.testing.assert_allclose(confirmed[0].p_xy_m, legs.mean(axis=0), atol=0.01)
+
+
 def test_bad_input_is_refused_with_the_argument_named():
     tracker = PersonTracker()
     tracker.update(1.0, np.zeros((0, 2)))

@@ -44,11 +44,18 @@ class Clusters(NamedTuple):
         return int(self.starts.size)
 
     def centroids(self) -> np.ndarray:
-        """Shape (c, 2) [m], the mean point of each cluster."""
-        sx = np.add.reduceat(self.x_m, self.starts) if self.count else np.zeros(0)
-        sy = np.add.reduceat(self.y_m, self.starts) if self.count else np.zeros(0)
+        """Shape (c, 2) [m], the mean point of each cluster.
+
+        Sums over ``starts:stops`` from cumulative sums: the returns of dropped (too short)
+        clusters lie between the kept ones and must not count (``np.add.reduceat`` over the
+        starts alone would add them to the cluster before).
+        """
         n = self.stops - self.starts
-        return np.column_stack([sx / n, sy / n]).reshape(-1, 2)
+        sums = []
+        for coordinate in (self.x_m, self.y_m):
+            cumulative = np.concatenate([[0.0], np.cumsum(coordinate)])
+            sums.append(cumulative[self.stops] - cumulative[self.starts])
+        return np.column_stack([sums[0] / n, sums[1] / n]).reshape(-1, 2)
 
 
 def segment(scan: LaserScan, jump_m: float = CLUSTER_JUMP_M,

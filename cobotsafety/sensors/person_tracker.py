@@ -8,7 +8,8 @@ Per scan (``update(t_s, legs_xy_m)``):
    position variance plus the measurement noise plus the spread of a leg around its torso);
    slots beyond the gate (``gate_chi2``, a chi-square quantile with 2 degrees of freedom) are
    forbidden, and ``scipy.optimize.linear_sum_assignment`` picks the cheapest one-to-one
-   assignment. Associating legs, not ready-made pairs, keeps two people apart when they pass
+   assignment, confirmed tracks first, then the tentative ones from the legs left (a
+   matching cascade: an uncertain new track must not take a leg from a confirmed person). Associating legs, not ready-made pairs, keeps two people apart when they pass
    close by (a blind pairing would pair one leg of each).
 2. **Correction**: a track with legs takes their mean as its measured torso (paper 2, eq. 4;
    a lone leg when the other is hidden or both are seen as one cluster); the others are only
@@ -217,9 +218,7 @@ class PersonTracker:
             # optimal assignment, no solver needed.
             pairs = zip(*np.nonzero(allowed))
         else:
-            slots = np.repeat(np.where(allowed, cost, 1e6 * self.params.gate_chi2), 2, axis=0)  # (2n, k)
-            rows, cols = linear_sum_assignment(slots)
-            pairs = ((row // 2, col) for row, col in zip(rows, cols) if allowed[row // 2, col])
+            pairs = self._cascade(cost, allowed)
         for track, leg in pairs:
             groups[int(track)].append(int(leg))
         for track, group in enumerate(groups):
@@ -228,6 +227,32 @@ class PersonTracker:
                 if math.hypot(x1 - x0, y1 - y0) > self.params.leg_pair_distance_m:
                     groups[track] = [group[int(np.argmin(cost[track, group]))]]
         return groups
+
+    def _cascade(self, cost: np.ndarray, allowed: np.ndarray) -> list[tuple[int, int]]:
+        """(track, leg) pairs of the cheapest gated assignment, confirmed tracks first.
+
+        Confirmed tracks share out the legs among themselves; tentative tracks then take from
+        the legs left. A tentative track born from one stray detection (a ghost of eq. 1's
+        time filter, say) and unseen since has a wide covariance, so a small Mahalanobis
+        distance to a leg 0.2 m away: in one assignment with everybody it took a leg from the
+        confirmed person beside it, who went on as two one-legged tracks (the replay's torso
+        off by the hip half-width for 5 s).
+        """
+        confirmed = self._hits >= self.params.confirm_after_hits
+        free = np.ones(cost.shape[1], dtype=bool)
+        pairs = []
+        for tracks in (np.flatnonzero(confirmed), np.flatnonzero(~confirmed)):
+            legs = np.flatnonzero(free)
+            if tracks.size == 0 or legs.size == 0:
+                continue
+            sub_allowed = allowed[np.ix_(tracks, legs)]
+            slots = np.repeat(np.where(sub_allowed, cost[np.ix_(tracks, legs)], 1e6 * self.params.gate_chi2), 2, axis=0)
+            rows, cols = linear_sum_assignment(slots)  # (2 slots per track, legs)
+            for row, col in zip(rows.tolist(), cols.tolist()):
+                if sub_allowed[row // 2, col]:
+                    pairs.append((int(tracks[row // 2]), int(legs[col])))
+                    free[legs[col]] = False
+        return pairs
 
     def _predict(self, t_s: float) -> None:
         f = self._filter

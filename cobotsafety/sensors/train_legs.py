@@ -7,6 +7,12 @@ Training set (``../shared/data/leg_tracker``, BSD-3, angusleigh/leg_tracker):
   label (walls, furniture of that room) are not; the ones in between (pieces of a leg split in
   two) are left out.
 * ``negative_2.bag`` (three scanners, nobody in view): every cluster is not a leg.
+* ``synthetic_legs``, in every fold: 400 ray-cast pairs of legs (circles of 4.5-8 cm, touching
+  or up to 0.3 m apart, 0.5-5.5 m away) as legs (positive_2 holds 3 clusters of two legs
+  together; without them a forest trained without positive_1 missed its leg pairs); and the
+  ghosts that eq. 1's trailing returns leave beside 60 rendered walks (time-filtered and
+  clipped as ``HumanTracker`` does before detecting) as non-legs (the pairs alone made one
+  such ghost leg-like, and the replay's tracker paired it).
 
 Each scan also enters decimated (every 2nd and 3rd beam), so the forest sees the resolutions
 of other scanners (0.35 deg here; 1 deg for the bench's TiM-like scanner).
@@ -14,8 +20,10 @@ of other scanners (0.35 deg here; 1 deg for the bench's TiM-like scanner).
 Cross-validation leaves one bag out at a time: a forest trained on the others detects legs in
 the held-out bag at full resolution (6 m range, with a per-beam background estimated from
 that bag and without), scored as ``evaluate_legs`` scores it. Two decision thresholds, one per
-setting (``choose_threshold``), from the held-out positive bags pooled (the fold that holds
-out the negative bag is reported, not used: its forest never saw a chair leg). Fixed seeds: the
+setting (``choose_threshold``: the highest threshold that keeps every held-out bag's recall
+0.05 above the 0.85 aim with the pooled false detections 30 % under 0.5 per scan, away from
+the cliff below), from the held-out positive bags pooled (the fold that holds out
+the negative bag is reported, not used: its forest never saw a chair leg). Fixed seeds: the
 command writes the same model every run (``assets/legs/leg_forest.npz``) and prints the table.
 
 The forest is shallow on purpose (``FOREST``): with ~450 labelled legs from two recordings of
@@ -27,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +46,7 @@ from cobotsafety.sensors.leg_clusters import segment
 from cobotsafety.sensors.leg_features import cluster_features
 from cobotsafety.sensors.legs import estimate_background, learned_legs, torsos_from_legs
 from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
+from cobotsafety.sensors.synthetic_legs import leg_cluster_features, leg_scans, walking_examples
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "leg_tracker"
 DEFAULT_OUT = Path(__file__).resolve().parents[2] / "assets" / "legs" / "leg_forest.npz"
@@ -54,10 +64,16 @@ NEGATIVE_SCAN_STEP = 4
 HIT_RADIUS_M = 0.25
 CV_RANGE_M = 6.0
 MAX_FALSE_PER_SCAN = 0.5
+#: Share of MAX_FALSE_PER_SCAN the chosen threshold may use on the held-out bags (a margin
+#: for unseen ones).
+FALSE_PER_SCAN_MARGIN = 0.7
 MIN_RECALL = 0.5
+#: The recall the chosen threshold should keep on every held-out bag: the aim, with a margin.
+RECALL_AIM = 0.85
+RECALL_MARGIN = 0.05
 SETTINGS = ("background", "no_background")
-THRESHOLDS = (0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85,
-              0.9, 0.95, 0.97, 0.99)
+THRESHOLDS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.12, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65,
+              0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 0.97, 0.99)
 SEED = 14
 FOREST = dict(n_estimators=80, max_depth=6, min_samples_leaf=20, max_features="sqrt",
               class_weight="balanced_subsample")
@@ -101,7 +117,9 @@ def group_of(bag: str) -> str:
     return bag.split("/")[0]
 
 
-def training_set(bags: dict, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def training_set(bags: dict, names: list[str], synthetic: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Features and classes of the bags ``names`` (every scan at every decimation), plus the
+    synthetic examples (``synthetic_examples``) unless ``synthetic`` is False."""
     xs, ys = [], []
     for name in names:
         step = NEGATIVE_SCAN_STEP if name.startswith(NEGATIVE_BAG) else 1
@@ -110,7 +128,24 @@ def training_set(bags: dict, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
                 x, y = labelled_examples(decimate(scan, decimation), labels)
                 xs.append(x)
                 ys.append(y)
+    if synthetic:
+        x, y = synthetic_examples()
+        xs.append(x)
+        ys.append(y)
     return np.concatenate(xs), np.concatenate(ys)
+
+
+@lru_cache(maxsize=1)
+def synthetic_examples() -> tuple[np.ndarray, np.ndarray]:
+    """Features and classes of the rendered examples (``synthetic_legs``, computed once): the
+    clusters of pairs of legs (legs), and the trailing-return ghosts of walks through eq. 1 and
+    a clip (not legs), every scan at every decimation."""
+    legs = np.concatenate([leg_cluster_features(decimate(scan, decimation), legs_m)
+                           for scan, legs_m in leg_scans() for decimation in DECIMATIONS])
+    walk_x, walk_y = walking_examples(decimations=DECIMATIONS)
+    ghosts = walk_x[walk_y == 0]
+    return (np.concatenate([legs, ghosts]),
+            np.concatenate([np.ones(legs.shape[0], dtype=int), np.zeros(ghosts.shape[0], dtype=int)]))
 
 
 def fit(x: np.ndarray, y: np.ndarray):
@@ -169,22 +204,44 @@ def cross_validate(bags: dict, thresholds: np.ndarray) -> dict:
     return result
 
 
-def choose_threshold(cv: dict, thresholds: np.ndarray, setting: str) -> int:
-    """Index of the threshold for ``setting``: the best pooled recall over the held-out positive
-    bags with at most ``MAX_FALSE_PER_SCAN`` pooled false detections per scan and a recall of at
-    least ``MIN_RECALL``; when no threshold gets there, the best pooled F1 (a false leg makes
-    the robot careful, a missed one does not).
-    """
-    pooled = []
+def pooled_curve(cv: dict, thresholds: np.ndarray, setting: str) -> list[tuple[float, float, float]]:
+    """Per threshold: (recall, false detections per scan, F1) over the held-out positive bags pooled."""
+    curve = []
     for i in range(thresholds.size):
         rows = [counts[i] for (name, s), counts in cv.items() if s == setting and not name.startswith(NEGATIVE_BAG)]
         found, labelled = sum(r["found"] for r in rows), sum(r["labelled"] for r in rows)
         false, scans = sum(r["false"] for r in rows), sum(r["scans"] for r in rows)
-        pooled.append((found / labelled, false / scans, 2 * found / (labelled + found + false)))
-    feasible = [i for i, (recall, fp, _) in enumerate(pooled) if fp <= MAX_FALSE_PER_SCAN and recall >= MIN_RECALL]
+        curve.append((found / labelled, false / scans, 2 * found / (labelled + found + false)))
+    return curve
+
+
+def choose_threshold(cv: dict, thresholds: np.ndarray, setting: str) -> int:
+    """Index of the threshold for ``setting``, from the held-out positive bags.
+
+    A threshold t is *safe* when the pooled false detections per scan stay within
+    ``FALSE_PER_SCAN_MARGIN`` x ``MAX_FALSE_PER_SCAN`` at t and at every threshold down to t / 2:
+    leg probabilities of unseen scans shift, and just below the lowest such threshold the false
+    detections jump (the with-background curve once went from 0.17 to 0.79 per scan between
+    0.04 and 0.02, and 0.03 chosen there let eq. 1's trailing returns through in the replay).
+    Among the safe thresholds at which *every* held-out bag keeps a recall of ``RECALL_AIM`` +
+    ``RECALL_MARGIN``, the highest (fewest false detections, farthest from the cliff); when none
+    does, the safe one with the best pooled recall (at least ``MIN_RECALL``); when none is
+    safe, the best pooled F1 (a false leg makes the robot careful, a missed one does not).
+    False detections are pooled, not per bag: positive_2's are nearly all people outside the
+    labelled sector (the bags label every cluster within +-15 deg and 5 m, nobody elsewhere).
+    """
+    curve = pooled_curve(cv, thresholds, setting)
+    cap = FALSE_PER_SCAN_MARGIN * MAX_FALSE_PER_SCAN
+    safe = [i for i in range(thresholds.size) if thresholds[0] <= thresholds[i] / 2
+            and all(curve[k][1] <= cap for k in range(thresholds.size) if thresholds[i] / 2 <= thresholds[k] <= thresholds[i])]
+    bags = [counts for (name, s), counts in cv.items() if s == setting and not name.startswith(NEGATIVE_BAG)]
+    with_margin = [i for i in safe if all(c[i]["found"] >= (RECALL_AIM + RECALL_MARGIN) * c[i]["labelled"] for c in bags)]
+    if with_margin:
+        return max(with_margin, key=lambda i: thresholds[i])
+    feasible = [i for i in safe if curve[i][0] >= MIN_RECALL]
     if feasible:
-        return max(feasible, key=lambda i: (pooled[i][0], -pooled[i][1]))
-    return max(range(thresholds.size), key=lambda i: pooled[i][2])
+        return max(feasible, key=lambda i: (curve[i][0], -curve[i][1]))
+    return max(range(thresholds.size), key=lambda i: curve[i][2])
 
 
 def main(argv: list[str] | None = None) -> int:
