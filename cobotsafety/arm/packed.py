@@ -45,6 +45,12 @@ _REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limit
 _EMPTY, _EMPTY3, _EYE3 = np.zeros(0), np.zeros((0, 3)), np.eye(3)
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 _HUMAN_ARRAYS = ("p0", "p1", "radius", "v0", "v1")
+_FLOAT = np.dtype(float)
+
+
+def _is_vector3(a) -> bool:
+    """``a`` is already what ``np.asarray(a, dtype=float).reshape(-1)`` makes of a 3-vector."""
+    return type(a) is np.ndarray and a.shape == (3,) and a.dtype == _FLOAT
 
 
 def _contradiction_reason(detail: np.ndarray) -> str:
@@ -143,8 +149,6 @@ class PackedArm:
         self._params: tuple | None = None
         self._human: tuple | None = None
         self._names: tuple | None = None
-        self._robot_args = (self.robot_int, self.jtype, self.axes, self.parent, self.idx_q, self.idx_v,
-                            self.placement_R, self.placement_t, self.support, self.ee_R, self.ee_t)
         self._no_previous = np.zeros(self.k)
         self._pack_capsules()
 
@@ -156,9 +160,23 @@ class PackedArm:
         self.cap_p0l = np.ascontiguousarray(state.capsule_p0_local, dtype=float)
         self.cap_p1l = np.ascontiguousarray(state.capsule_p1_local, dtype=float)
         self.radius = np.ascontiguousarray(state.capsule_radius, dtype=float)
-        self._capsule_args = (self.cap_joint, self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper,
-                              self.limited, self.vlim)
+        self._robot_i, self._robot_f = self.robot_buffers()
         self._pack = None
+
+    def robot_buffers(self) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's arrays in two flat buffers, int64 and float64 (``packed_kernel.unpack_robot``
+        reads them): a header (joints, nq, nv, end-effector joint, capsules, limited joints),
+        then every array in a fixed order."""
+        nj = len(self.jtype)
+        header = [nj, len(self.lower), int(self.robot_int[0]), int(self.robot_int[1]), len(self.cap_joint),
+                  len(self.limited)]
+        robot_i = np.concatenate([np.array(header, dtype=np.int64), self.jtype, self.parent, self.idx_q, self.idx_v,
+                                  self.support.astype(np.int64).ravel(), self.cap_joint,
+                                  self.limited.astype(np.int64).ravel()]).astype(np.int64)
+        robot_f = np.concatenate([a.ravel() for a in (self.axes, self.placement_R, self.placement_t, self.ee_R, self.ee_t,
+                                                      self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper,
+                                                      self.vlim)]).astype(float)
+        return np.ascontiguousarray(robot_i), np.ascontiguousarray(robot_f)
 
     def packed(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
         """``pack(constraints)``, made again only when the list object or the capsules change."""
@@ -311,13 +329,15 @@ class PackedArm:
         list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
         """
         self.steps += 1
-        pack = self.packed(constraints) if self.supported else None
+        pack = self._pack
+        if pack is None or pack.constraints_list is not constraints or self._state.capsules is not self._capsules:
+            pack = self.packed(constraints) if self.supported else None
         if pack is None or method not in _METHODS or state is not self._state:
             reason = ("joint type" if not self.supported else "constraint type" if pack is None
                       else "method" if method not in _METHODS else "another state")
             return self._reference(reason, state, v_desired, dt_s, constraints, params, method, R_world_ee_ref,
                                    last_qdot, v_previous)
-        v = np.asarray(v_desired, dtype=float).reshape(-1)
+        v = v_desired if _is_vector3(v_desired) else np.asarray(v_desired, dtype=float).reshape(-1)
         if v.shape != (3,):
             raise ValueError(f"v_desired must have shape (3,), got {np.shape(v_desired)}")
         if not dt_s > 0:
@@ -333,7 +353,7 @@ class PackedArm:
         vk = v if k == 3 else np.ascontiguousarray(v[:k])
         previous = self._no_previous
         if v_previous is not None:
-            given = np.asarray(v_previous, dtype=float).reshape(-1)[:k]
+            given = v_previous if k == 3 and _is_vector3(v_previous) else np.asarray(v_previous, dtype=float).reshape(-1)[:k]
             if math.isfinite(sum(given.tolist())):
                 previous = np.ascontiguousarray(given)
         if self._params is None or self._params[0] is not params:
@@ -345,8 +365,7 @@ class PackedArm:
             (status, q_next, qdot, command, stopped, normals, bounds, tags, codes, relaxed_rows, worst_row,
              worst_violation, net_scale, p_ee, R_ee, J6, p0, p1, origins, detail) = packed_step(
                 np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
-                _METHODS[method], R_ref, with_orientation, *self._robot_args, *self._capsule_args,
-                float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1, hr,
+                _METHODS[method], R_ref, with_orientation, self._robot_i, self._robot_f, float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1, hr,
                 hv0, hv1, self._params[1])
         except np.linalg.LinAlgError:  # an active set on dependent rows: the reference says why
             status = STATUS_SINGULAR

@@ -111,12 +111,49 @@ def filter_kernel(vk, N, bnd, v_previous, with_previous: bool, dt_s: float, max_
 
 
 @numba.njit(cache=True)
+def unpack_robot(robot_i, robot_f):  # pragma: no cover - compiled
+    """The robot's arrays as views of its two flat buffers (``packed.robot_buffers`` lays them
+    out): ``(robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support,
+    ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim)``. Two
+    arguments instead of nineteen: numba's dispatcher types every argument at every call."""
+    nj, nq, nv, c, L = robot_i[0], robot_i[1], robot_i[2], robot_i[4], robot_i[5]
+    robot_int = robot_i[2:4]  # nv, the end-effector's joint
+    o = 6
+    jtype = robot_i[o:o + nj]
+    parent = robot_i[o + nj:o + 2 * nj]
+    idx_q = robot_i[o + 2 * nj:o + 3 * nj]
+    idx_v = robot_i[o + 3 * nj:o + 4 * nj]
+    o += 4 * nj
+    support = robot_i[o:o + nj * nj].reshape((nj, nj))
+    o += nj * nj
+    cap_joint = robot_i[o:o + c]
+    limited = robot_i[o + c:o + c + 2 * L].reshape((L, 2))
+    axes = robot_f[0:3 * nj].reshape((nj, 3))
+    o = 3 * nj
+    placement_R = robot_f[o:o + 9 * nj].reshape((nj, 3, 3))
+    o += 9 * nj
+    placement_t = robot_f[o:o + 3 * nj].reshape((nj, 3))
+    o += 3 * nj
+    ee_R = robot_f[o:o + 9].reshape((3, 3))
+    ee_t = robot_f[o + 9:o + 12]
+    o += 12
+    cap_p0l = robot_f[o:o + 3 * c].reshape((c, 3))
+    cap_p1l = robot_f[o + 3 * c:o + 6 * c].reshape((c, 3))
+    radius = robot_f[o + 6 * c:o + 7 * c]
+    o += 7 * c
+    lower = robot_f[o:o + nq]
+    upper = robot_f[o + nq:o + 2 * nq]
+    vlim = robot_f[o + 2 * nq:o + 2 * nq + nv]
+    return (robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t, cap_joint,
+            cap_p0l, cap_p1l, radius, lower, upper, limited, vlim)
+
+
+@numba.njit(cache=True)
 def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int, R_ref, with_orientation: bool,
-                robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t,
-                cap_joint, cap_p0l, cap_p1l, radius, lower, upper, limited, vlim, lever_m: float,
-                kinds, reals, ints, before_start, n_before: int, max_rows: int,
+                robot_i, robot_f, lever_m: float, kinds, reals, ints, before_start, n_before: int, max_rows: int,
                 hp0, hp1, hr, hv0, hv1, params):  # pragma: no cover - compiled
-    """One step. ``params``: ArmParams as floats (see ``packed.params_vector``).
+    """One step. ``robot_i``, ``robot_f``: the robot (``unpack_robot``); ``params``: ArmParams as
+    floats (see ``packed.params_vector``).
 
     Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), tags (m, 3),
     binding_codes (b,), relaxed_rows, worst_row, worst_violation, net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1,
@@ -129,6 +166,8 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
      centering_gain, velocity_limit_scale, buffer_m, buffer_rad, recovery_gain, max_accel) = (
         params[0], params[1], params[2], params[3], params[4], params[5], params[6], params[7], params[8],
         params[9], params[10], params[11], params[12])
+    (robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t, cap_joint, cap_p0l,
+     cap_p1l, radius, lower, upper, limited, vlim) = unpack_robot(robot_i, robot_f)
     nv = robot_int[0]
     k = vk.shape[0]
     detail = np.zeros(4)
