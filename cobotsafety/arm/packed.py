@@ -42,7 +42,7 @@ logger = logging.getLogger(__name__)
 STATUS_SINGULAR = -1
 _REASONS = {STATUS_BOX_TOUCHED: "box zone touched", STATUS_CONTRADICTION: "limits contradict",
             STATUS_SINGULAR: "singular active set"}
-_EMPTY, _EMPTY3, _EYE3 = np.zeros(0), np.zeros((0, 3)), np.eye(3)
+_EMPTY, _EYE3 = np.zeros(0), np.eye(3)
 _METHODS = {"anticipative": METHOD_ANTICIPATIVE, "stop": METHOD_STOP}
 _HUMAN_ARRAYS = ("p0", "p1", "radius", "v0", "v1")
 _FLOAT = np.dtype(float)
@@ -265,12 +265,10 @@ class PackedArm:
         before_start = np.zeros(len(sizes) + 1, dtype=np.int64)
         np.cumsum(sizes, out=before_start[1:])
         max_rows = int(before_start[-1]) + 2 * len(self.limited) + 2
-        if not pack.humans:
-            human = (_EMPTY3, _EMPTY3, _EMPTY, _EMPTY3, _EMPTY3)
-        else:
-            human = tuple(np.ascontiguousarray(np.concatenate([getattr(con, a) for con in pack.humans]), dtype=float)
-                          for a in _HUMAN_ARRAYS)
-        layout = (ints, before_start, int(before_start[-1]), max_rows, *human)
+        # One flat buffer (``packed_kernel.unpack_human``): p0, p1, radius, v0, v1 of every capsule.
+        human = np.concatenate([np.asarray(getattr(con, a), dtype=float).ravel() for a in _HUMAN_ARRAYS
+                                for con in pack.humans] or [_EMPTY])
+        layout = (ints, before_start, int(before_start[-1]), max_rows, np.ascontiguousarray(human))
         self._human = (pack, arrays, layout)
         return layout
 
@@ -358,15 +356,15 @@ class PackedArm:
                 previous = np.ascontiguousarray(given)
         if self._params is None or self._params[0] is not params:
             self._params = (params, params_vector(params))
-        ints, before_start, n_before, max_rows, hp0, hp1, hr, hv0, hv1 = self._human_arrays(pack)
+        ints, before_start, n_before, max_rows, human_f = self._human_arrays(pack)
         with_orientation = R_world_ee_ref is not None and state.name != "planar"
         R_ref = np.ascontiguousarray(R_world_ee_ref, dtype=float) if with_orientation else _EYE3
         try:
             (status, q_next, qdot, command, stopped, normals, bounds, tags, codes, relaxed_rows, worst_row,
              worst_violation, net_scale, p_ee, R_ee, J6, p0, p1, origins, detail) = packed_step(
                 np.ascontiguousarray(state.q, dtype=float), vk, previous, v_previous is not None, float(dt_s),
-                _METHODS[method], R_ref, with_orientation, self._robot_i, self._robot_f, float(state.lever_m), pack.kinds, pack.reals, ints, before_start, n_before, max_rows, hp0, hp1, hr,
-                hv0, hv1, self._params[1])
+                _METHODS[method], R_ref, with_orientation, self._robot_i, self._robot_f, float(state.lever_m),
+                pack.kinds, pack.reals, ints, before_start, n_before, max_rows, human_f, self._params[1])
         except np.linalg.LinAlgError:  # an active set on dependent rows: the reference says why
             status = STATUS_SINGULAR
         if status != STATUS_DONE:

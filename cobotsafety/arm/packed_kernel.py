@@ -149,11 +149,21 @@ def unpack_robot(robot_i, robot_f):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def unpack_human(human_f):  # pragma: no cover - compiled
+    """``(p0 (h, 3), p1 (h, 3), radius (h,), v0 (h, 3), v1 (h, 3))`` as views of one flat buffer
+    holding them in that order (13 floats a capsule)."""
+    h = human_f.shape[0] // 13
+    return (human_f[0:3 * h].reshape((h, 3)), human_f[3 * h:6 * h].reshape((h, 3)), human_f[6 * h:7 * h],
+            human_f[7 * h:10 * h].reshape((h, 3)), human_f[10 * h:13 * h].reshape((h, 3)))
+
+
+@numba.njit(cache=True)
 def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int, R_ref, with_orientation: bool,
                 robot_i, robot_f, lever_m: float, kinds, reals, ints, before_start, n_before: int, max_rows: int,
-                hp0, hp1, hr, hv0, hv1, params):  # pragma: no cover - compiled
-    """One step. ``robot_i``, ``robot_f``: the robot (``unpack_robot``); ``params``: ArmParams as
-    floats (see ``packed.params_vector``).
+                human_f, params):  # pragma: no cover - compiled
+    """One step. ``robot_i``, ``robot_f``: the robot (``unpack_robot``); ``human_f``: the human
+    capsules' end points, radii and end-point velocities, flat (``unpack_human``); ``params``:
+    ArmParams as floats (see ``packed.params_vector``).
 
     Returns ``(status, q_next, qdot (nv,), command (k,), stopped, normals (m, k), bounds (m,), tags (m, 3),
     binding_codes (b,), relaxed_rows, worst_row, worst_violation, net_scale, p_ee, R_ee, J_ee (6, nv), p0, p1,
@@ -168,6 +178,7 @@ def packed_step(q, vk, v_previous, with_previous: bool, dt_s: float, method: int
         params[9], params[10], params[11], params[12])
     (robot_int, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_R, ee_t, cap_joint, cap_p0l,
      cap_p1l, radius, lower, upper, limited, vlim) = unpack_robot(robot_i, robot_f)
+    hp0, hp1, hr, hv0, hv1 = unpack_human(human_f)
     nv = robot_int[0]
     k = vk.shape[0]
     detail = np.zeros(4)
