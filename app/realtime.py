@@ -1,11 +1,12 @@
 """Real-time scheduling (Linux ``SCHED_FIFO``) for the calling thread, when the OS allows it.
 
 Why the control thread asks for it: under the normal policy it is one runnable thread among
-many, and a browser on the same machine (headless Chromium drawing the scene in software, its
-compositor threads at nice -8, in an autogroup of its own) takes the cores for tens of
-milliseconds at a time. Measured with the panda, the replayed human and Chromium attached
-(``/proc/<pid>/task/<tid>/schedstat`` of the control thread across each stall): the thread was
-*runnable* for 30-400 ms of each 30-400 ms gap, waiting in the run queue, not blocked on the GIL.
+many, and a browser on the same machine takes the cores for tens of milliseconds at a time
+(headless Chromium's GPU process drawing the scene in software GL used ~1.2 cores at nice -8,
+in an autogroup of its own). Measured with the panda, the replayed human and Chromium attached
+(``/proc/<pid>/task/<tid>/schedstat`` of the control thread across each gap over 30 ms): in
+most gaps the thread was *runnable* nearly the whole gap (e.g. 404.7 ms of a 406 ms gap, 107
+of 108, 249 of 250), waiting in the run queue, not blocked on the GIL.
 A ``SCHED_FIFO`` thread runs as soon as it wakes, ahead of every normal thread; the control
 thread sleeps most of each period, and the kernel's RT throttling (``sched_rt_runtime_us``)
 bounds it if it ever does not.
