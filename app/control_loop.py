@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from cobotsafety.app.gizmo import GizmoSettings, offset_to_velocity
+from cobotsafety.app.realtime import request_fifo
 from cobotsafety.app.tick_schedule import TickSchedule
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.teleop import METHODS, StepReport, Teleoperated
@@ -51,6 +52,10 @@ class LoopSettings:
     """A tick at most this late [s] still runs with the nominal period (the loop catches up on
     its schedule); later, the ticks missed are dropped and their time integrated in one step
     (``TickSchedule``)."""
+    fifo_priority: int = 0
+    """``SCHED_FIFO`` priority of the loop's thread (1-99), where the OS allows it; 0 (default)
+    leaves the thread under the normal policy (``cobotsafety.app.realtime``). The demo asks
+    for it: with a browser on the same cores the thread otherwise waited up to 400 ms to run."""
 
     @property
     def dt_s(self) -> float:
@@ -170,6 +175,8 @@ class ControlLoop:
         self._method = "anticipative"
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self.fifo_refused = ""
+        """Why the thread did not get ``settings.fifo_priority`` ("" when it did or none was asked)."""
         self._reset_inputs()
 
     def _reset_inputs(self) -> None:
@@ -300,6 +307,10 @@ class ControlLoop:
     def _run(self) -> None:
         clock, sleep = self.clock, self.sleep
         s = self.settings
+        if s.fifo_priority > 0:
+            self.fifo_refused = request_fifo(s.fifo_priority)
+            if self.fifo_refused:
+                logger.info("control loop under the normal scheduling policy: %s", self.fifo_refused)
         schedule = TickSchedule(s.dt_s, s.max_lag_s, MAX_DT_S, clock())
         last = None
         while not self._stop.is_set():

@@ -58,6 +58,9 @@ class DemoConfig:
 
 GIL_SWITCH_INTERVAL_S = 0.0005
 """Python's thread switch interval while the demo runs [s] (default 0.005)."""
+CONTROL_FIFO_PRIORITY = 10
+"""``SCHED_FIFO`` priority asked for the control thread (low among real-time threads; refused
+without the permission, then the loop runs under the normal policy)."""
 
 
 def settle_heap() -> None:
@@ -110,7 +113,7 @@ class DemoApp:
         self.server.gui.configure_theme(control_width="large")
         self.scene = make_scene(self.server, robot_name)
         self._planar_label = PLANAR_SCENES[0]
-        self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz))
+        self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY))
         self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
                                 self.loop.gizmo, ssm_available=self.scene.dim == 3)
         self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
