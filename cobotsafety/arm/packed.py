@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import operator
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -173,9 +174,9 @@ class PackedArm:
         robot_i = np.concatenate([np.array(header, dtype=np.int64), self.jtype, self.parent, self.idx_q, self.idx_v,
                                   self.support.astype(np.int64).ravel(), self.cap_joint,
                                   self.limited.astype(np.int64).ravel()]).astype(np.int64)
-        robot_f = np.concatenate([a.ravel() for a in (self.axes, self.placement_R, self.placement_t, self.ee_R, self.ee_t,
-                                                      self.cap_p0l, self.cap_p1l, self.radius, self.lower, self.upper,
-                                                      self.vlim)]).astype(float)
+        floats = (self.axes, self.placement_R, self.placement_t, self.ee_R, self.ee_t, self.cap_p0l, self.cap_p1l,
+                  self.radius, self.lower, self.upper, self.vlim)
+        robot_f = np.concatenate([a.ravel() for a in floats]).astype(float)
         return np.ascontiguousarray(robot_i), np.ascontiguousarray(robot_f)
 
     def packed(self, constraints: list[ArmConstraint]) -> ConstraintPack | None:
@@ -241,16 +242,9 @@ class PackedArm:
         """The human capsules of every human constraint, concatenated, and the layout: ints
         (per-constraint human ranges), before_start (offsets of each constraint's distances),
         the row bound. Remade only when a human constraint's arrays are replaced (``set_human``)."""
+        arrays = [getattr(con, a) for con in pack.humans for a in _HUMAN_ARRAYS]
         cached = self._human
-        if cached is not None and cached[0] is pack:
-            if not pack.humans:
-                return cached[2]
-            if len(pack.humans) == 1:
-                con, (p0, p1, radius, v0, v1) = pack.humans[0], cached[1]
-                if con.p0 is p0 and con.p1 is p1 and con.radius is radius and con.v0 is v0 and con.v1 is v1:
-                    return cached[2]
-        arrays = tuple(getattr(con, a) for con in pack.humans for a in _HUMAN_ARRAYS)
-        if cached is not None and cached[0] is pack and all(a is b for a, b in zip(cached[1], arrays)):
+        if cached is not None and cached[0] is pack and all(map(operator.is_, arrays, cached[1])):
             return cached[2]
         counts = tuple(len(con.radius) for con in pack.humans)
         ints, sizes = pack.ints.copy(), pack.before_start.copy()
@@ -327,9 +321,7 @@ class PackedArm:
         list while the constraints stay the same, as ``ArmTeleop.constraints`` does).
         """
         self.steps += 1
-        pack = self._pack
-        if pack is None or pack.constraints_list is not constraints or self._state.capsules is not self._capsules:
-            pack = self.packed(constraints) if self.supported else None
+        pack = self.packed(constraints) if self.supported else None
         if pack is None or method not in _METHODS or state is not self._state:
             reason = ("joint type" if not self.supported else "constraint type" if pack is None
                       else "method" if method not in _METHODS else "another state")
@@ -351,7 +343,8 @@ class PackedArm:
         vk = v if k == 3 else np.ascontiguousarray(v[:k])
         previous = self._no_previous
         if v_previous is not None:
-            given = v_previous if k == 3 and _is_vector3(v_previous) else np.asarray(v_previous, dtype=float).reshape(-1)[:k]
+            given = (v_previous if k == 3 and _is_vector3(v_previous)
+                     else np.asarray(v_previous, dtype=float).reshape(-1)[:k])
             if math.isfinite(sum(given.tolist())):
                 previous = np.ascontiguousarray(given)
         if self._params is None or self._params[0] is not params:

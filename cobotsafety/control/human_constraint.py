@@ -26,10 +26,6 @@ DEFAULT_CRITICAL_M = 0.25
 DEFAULT_ACTIVATION_M = 0.60
 
 
-def _contiguous(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=float)
-
-
 @dataclass
 class HumanCapsulesConstraint(ArmConstraint):
     """Keeps every robot capsule ``critical_m`` away from every human capsule.
@@ -60,22 +56,24 @@ class HumanCapsulesConstraint(ArmConstraint):
 
     def pairs(self, state: RobotState):
         """Distances (c, k) [m], robot points (c, k, 3), human points (c, k, 3)."""
-        s = min(self.skip_capsules, len(state.capsule_radius))
-        c, k = len(state.capsule_radius) - s, len(self.radius)
+        args = self._kernel_arguments(state)
+        c, k = len(state.capsule_radius) - args[3], len(self.radius)
         # ``capsule_distance`` on the (c, 1) x (1, k) broadcast, without its broadcasting cost.
-        d, p_robot, p_human = human_pairs(*(np.ascontiguousarray(a, dtype=float) for a in (
-            state.capsule_p0, state.capsule_p1, state.capsule_radius)), s,
-            *(np.ascontiguousarray(a, dtype=float) for a in (self.p0, self.p1, self.radius)))
+        d, p_robot, p_human = human_pairs(*args)
         return d.reshape(c, k), p_robot.reshape(c, k, 3), p_human.reshape(c, k, 3)
+
+    def _kernel_arguments(self, state: RobotState) -> tuple:
+        """The robot's and the human's capsules as ``human_pairs`` and ``human_minimum`` take them."""
+        robot = [np.ascontiguousarray(a, dtype=float) for a in (state.capsule_p0, state.capsule_p1, state.capsule_radius)]
+        human = [np.ascontiguousarray(a, dtype=float) for a in (self.p0, self.p1, self.radius)]
+        return (*robot, min(self.skip_capsules, len(state.capsule_radius)), *human)
 
     def minimum(self, state: RobotState) -> tuple[float, np.ndarray, np.ndarray]:
         """Minimum human-robot distance [m] and its closest points (robot, human)."""
         if self.radius.size == 0 or len(state.capsules) <= self.skip_capsules:
             return np.inf, np.full(3, np.nan), np.full(3, np.nan)
         # The first smallest of ``pairs``' distances, in one compiled call.
-        c = _contiguous
-        return human_minimum(c(state.capsule_p0), c(state.capsule_p1), c(state.capsule_radius), self.skip_capsules,
-                             c(self.p0), c(self.p1), c(self.radius))
+        return human_minimum(*self._kernel_arguments(state))
 
     def distances(self, state: RobotState) -> np.ndarray:
         if self.radius.size == 0:
