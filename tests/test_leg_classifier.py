@@ -1,5 +1,6 @@
-"""The packed forest: loads without sklearn or pickle, and predicts exactly what scikit-learn's
-``predict_proba`` does (the oracle) on real cluster features."""
+"""The packed tree ensembles (random forest, gradient boosting): load without sklearn or pickle,
+and predict exactly what scikit-learn's ``predict_proba`` does (the oracle) on real cluster
+features."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import sys
 
 import numpy as np
 import pytest
-from sklearn.ensemble import RandomForestClassifier
+from sklearn.ensemble import GradientBoostingClassifier, RandomForestClassifier
 
 from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest, bundled_model_path
 from cobotsafety.sensors.leg_features import FEATURE_NAMES
@@ -27,11 +28,17 @@ def real_features(shared_data):
     return np.concatenate(xs), np.concatenate(ys)
 
 
-def test_packed_forest_equals_sklearn_predict_proba(real_features, tmp_path):
+@pytest.mark.parametrize("make", [
+    lambda: RandomForestClassifier(n_estimators=15, min_samples_leaf=2, random_state=3, n_jobs=1),
+    lambda: GradientBoostingClassifier(n_estimators=40, max_depth=3, learning_rate=0.2, subsample=0.8, random_state=3),
+], ids=["random_forest", "gradient_boosting"])
+def test_packed_ensemble_equals_sklearn_predict_proba(real_features, tmp_path, make):
     x, y = real_features
     assert 40 < y.sum() < y.size  # both classes present
-    forest = RandomForestClassifier(n_estimators=15, min_samples_leaf=2, random_state=3, n_jobs=1).fit(x, y)
+    weight = np.where(y == 1, 5.0, 1.0)  # a prior that is not the class shares (the boosted base score)
+    forest = make().fit(x, y, sample_weight=weight)
     packed = LegForest.from_sklearn(forest, 0.5)
+    assert packed.link == ("logistic" if isinstance(forest, GradientBoostingClassifier) else "mean")
     packed.save(tmp_path / "forest.npz")
     loaded = LegForest.load(tmp_path / "forest.npz")
     oracle = forest.predict_proba(x)[:, 1]
@@ -74,19 +81,23 @@ def test_bundled_model_is_sane():
     forest = bundled_forest()
     assert 0.0 < forest.threshold_probability < 1.0
     assert 0.0 < forest.threshold_probability_no_background < 1.0
-    assert np.all((forest.leaf_probability >= 0) & (forest.leaf_probability <= 1))
+    assert forest.link in ("mean", "logistic")
+    assert np.all(np.isfinite(forest.leaf_value)) and np.isfinite(forest.base_score)
+    if forest.link == "mean":
+        assert np.all((forest.leaf_value >= 0) & (forest.leaf_value <= 1))
 
 
 def test_malformed_model_files_are_refused(tmp_path):
     forest = bundled_forest()
-    broken = LegForest(forest.feature, forest.threshold, forest.left.copy(), forest.right, forest.leaf_probability,
-                       forest.roots, 0.5, 0.5)
+    broken = LegForest(forest.feature, forest.threshold, forest.left.copy(), forest.right, forest.leaf_value,
+                       forest.roots, 0.5, 0.5, forest.link, forest.base_score)
     broken.left[int(np.flatnonzero(forest.feature >= 0)[0])] = forest.feature.size + 5
     broken.save(tmp_path / "broken.npz")
     with pytest.raises(ValueError, match="malformed"):
         LegForest.load(tmp_path / "broken.npz")
     np.savez(tmp_path / "other.npz", feature=forest.feature, threshold=forest.threshold, left=forest.left,
-             right=forest.right, leaf_probability=forest.leaf_probability, roots=forest.roots,
+             right=forest.right, leaf_value=forest.leaf_value, roots=forest.roots, link=np.array(forest.link),
+             base_score=forest.base_score,
              feature_names=np.array(["a", "b"]), threshold_probability=0.5,
              threshold_probability_no_background=0.5)
     with pytest.raises(ValueError, match="trained on features"):
@@ -100,5 +111,6 @@ def test_training_is_deterministic(real_features):
     x, y = real_features
     a = LegForest.from_sklearn(fit(x, y), 0.5)
     b = LegForest.from_sklearn(fit(x, y), 0.5)
-    for name in ("feature", "threshold", "left", "right", "leaf_probability", "roots"):
+    assert a.base_score == b.base_score
+    for name in ("feature", "threshold", "left", "right", "leaf_value", "roots"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))

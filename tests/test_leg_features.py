@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.leg_clusters import CLUSTER_JUMP_M, segment
+from cobotsafety.sensors.leg_context import CONTEXT_CAP_M
 from cobotsafety.sensors.leg_features import (FEATURE_NAMES, JUMP_CAP_M, RADIUS_CAP_M, cluster_features,
                                                features_reference)
 from cobotsafety.sensors.rosbag_io import read_laser_scans
@@ -126,3 +127,48 @@ def test_kernel_equals_reference_on_random_scans(ranges, inc):
     assert np.all(np.isfinite(fast))
     # Near-collinear triples make the circle fit ill-conditioned: compare relative to scale.
     np.testing.assert_allclose(fast, slow, rtol=1e-7, atol=1e-7)
+
+
+def two_circles_scan(c1, c2, radius=0.06, beams=1441, inc=math.radians(0.125)) -> LaserScan:
+    """Ray-cast two circles (the nearer hit per beam), nothing else in view."""
+    angles = -inc * (beams - 1) / 2 + inc * np.arange(beams)
+    hits = []
+    for cx, cy in (c1, c2):
+        b = np.cos(angles) * cx + np.sin(angles) * cy
+        disc = b**2 - (cx**2 + cy**2 - radius**2)
+        hits.append(np.where(disc >= 0, b - np.sqrt(np.abs(disc)), np.inf))
+    return LaserScan(angles[0], inc, 0.02, 20.0, np.minimum(*hits))
+
+
+def test_context_of_two_legs_in_open_space():
+    """Two legs 0.3 m apart: each one's nearest other cluster is the other leg, at the distance of
+    their centroids (computed here from the other cluster's own points), its width the other's;
+    the nearest foreign return is the other leg's nearest point; nothing within 0.5 m but it."""
+    scan = two_circles_scan((2.0, 0.15), (2.0, -0.15))
+    clusters = segment(scan)
+    assert clusters.count == 2
+    f = cluster_features(scan, clusters)
+    c = centroids_by_loop(clusters)
+    pts = [np.column_stack([clusters.x_m[a:b], clusters.y_m[a:b]]) for a, b in zip(clusters.starts, clusters.stops)]
+    for j, k in ((0, 1), (1, 0)):
+        assert abs(f[j, F["nearest_cluster_m"]] - np.linalg.norm(c[j] - c[k])) < 1e-12
+        assert abs(f[j, F["nearest_cluster_width_m"]] - f[k, F["width_m"]]) < 1e-12
+        assert abs(f[j, F["nearest_return_m"]] - np.linalg.norm(pts[k] - c[j], axis=1).min()) < 1e-12
+        assert f[j, F["returns_within_0_5_m"]] == f[j, F["returns_within_1_m"]] == len(pts[k])
+    alone = circle_scan(1.5, 0.3, 0.06)
+    g = cluster_features(alone, segment(alone))[0]
+    assert g[F["nearest_cluster_m"]] == g[F["nearest_return_m"]] == CONTEXT_CAP_M
+    assert g[F["nearest_cluster_width_m"]] == g[F["returns_within_1_m"]] == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.one_of(st.floats(0.05, 8.0), st.sampled_from([0.0, np.nan, np.inf])), min_size=2, max_size=300),
+       st.floats(0.001, 0.05), st.integers(0, 2**32 - 1))
+def test_features_of_some_rows_are_those_rows_of_all(ranges, inc, seed):
+    """``rows`` picks clusters; their context is still among all clusters of the scan."""
+    scan = scan_of(ranges, inc)
+    clusters = segment(scan)
+    rows = np.flatnonzero(np.random.default_rng(seed).random(clusters.count) < 0.5)
+    every = cluster_features(scan, clusters)
+    np.testing.assert_array_equal(cluster_features(scan, clusters, rows), every[rows])
+    np.testing.assert_allclose(features_reference(scan, clusters, rows), every[rows], rtol=1e-7, atol=1e-7)

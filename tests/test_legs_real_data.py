@@ -21,11 +21,19 @@ def bags(shared_data):
     return train_legs.load_bags(shared_data / "leg_tracker")
 
 
+_HELD_OUT: dict[tuple[str, ...], LegForest] = {}
+
+
 def held_out_forest(bags, held_out: list[str]) -> LegForest:
-    names = [n for n in bags if n not in held_out]
-    bundled = bundled_forest()
-    return LegForest.from_sklearn(train_legs.fit(*train_legs.training_set(bags, names)),
-                                  bundled.threshold_probability, bundled.threshold_probability_no_background)
+    """The training recipe without ``held_out``, the bundled thresholds (trained once per session)."""
+    key = tuple(held_out)
+    if key not in _HELD_OUT:
+        names = [n for n in bags if n not in held_out]
+        bundled = bundled_forest()
+        _HELD_OUT[key] = LegForest.from_sklearn(train_legs.fit(*train_legs.training_set(bags, names)),
+                                                bundled.threshold_probability,
+                                                bundled.threshold_probability_no_background)
+    return _HELD_OUT[key]
 
 
 @pytest.mark.parametrize("held, labelled", [("positive_1_extracted.bag", 324), ("positive_2_extracted.bag", 116)])
@@ -56,6 +64,21 @@ def test_unseen_labelled_bag_with_a_background(bags, held, labelled):
     assert false_in_sector / score["scans"] <= 0.1
     if held == "positive_1_extracted.bag":  # few people outside the sector there
         assert score["false"] / score["scans"] <= 0.5
+
+
+@pytest.mark.parametrize("held, min_recall", [("positive_1_extracted.bag", 0.55), ("positive_2_extracted.bag", 0.85)])
+def test_unseen_labelled_bag_without_a_background(bags, held, min_recall):
+    """No background (a moving scanner has none), 6 m, the bundled no-background threshold, a
+    model trained without the bag: false detections <= 0.5 per scan counted everywhere (the
+    room's chair and table legs are in every scan), torso median <= 0.10 m. Recall: the aim
+    (0.85) where the model was trained on positive_1's 324 labelled legs; holding positive_1
+    out leaves positive_2's 116, and it finds ~62 % (its misses are mostly legs of walking
+    pairs, which positive_2 hardly shows)."""
+    forest = held_out_forest(bags, [held])
+    score = train_legs.score_bag(bags[held], lambda s: learned_legs(s, 6.0, None, forest=forest))
+    assert score["found"] / score["labelled"] >= min_recall
+    assert score["false"] / score["scans"] <= 0.5
+    assert np.median(score["torso_errors_m"]) <= 0.10
 
 
 def test_nobody_in_view_gives_fewer_detections_than_the_paper_rule(bags):

@@ -46,3 +46,20 @@ def test_walks_give_legs_and_ghosts_the_same_every_run():
     np.testing.assert_array_equal(x, x2)
     np.testing.assert_array_equal(y, y2)
     assert y.sum() > 0 and (y == 0).sum() > 0
+
+
+def test_a_wall_behind_the_legs_gives_non_leg_pieces():
+    """A straight wall 1 m behind two legs: its straight pieces (the wall seen between and
+    beside the legs' shadows) are non-leg examples, the two leg arcs legs; the wall's points
+    lie on its line."""
+    legs = np.array([[2.0, 0.15], [2.0, -0.15]])
+    circles = np.column_stack([legs, [0.06, 0.06]])
+    scan = S.render_circles(circles, 0.0, np.random.default_rng(0), wall=(0.0, 3.0))  # the line x = 3 m
+    features, leg = S.scene_examples(scan, legs)
+    assert leg.sum() == 2 and (leg == 0).sum() >= 2
+    points = scan.ranges[scan.valid][:, None] * np.column_stack([np.cos(scan.angles[scan.valid]),
+                                                                  np.sin(scan.angles[scan.valid])])
+    on_wall = np.abs(points[:, 0] - 3.0) < 1e-9
+    near_legs = np.linalg.norm(points[:, None] - legs[None], axis=-1).min(axis=1) < 0.061
+    assert np.all(on_wall | near_legs)
+    assert np.all(np.linalg.norm(points[on_wall], axis=1) <= S.RANGE_MAX_M + 1e-9)

@@ -41,3 +41,14 @@ def test_nothing_safe_gives_the_best_f1():
     cv = cv_of(recalls, false)
     f1 = [2 * r / (1 + r + f) for r, f in zip(recalls, false)]
     assert choose_threshold(cv, THRESHOLDS, "background") == int(np.argmax(f1))
+
+
+def test_the_margin_is_a_factor_of_two_in_the_odds():
+    """Near 0.5 half the odds is far less than half the probability: 0.6 (odds 1.5) must hold
+    down to 0.4 (odds 0.67 <= 0.75), not to 0.3 (t / 2): with a cliff at 0.3, 0.6 is safe,
+    and 0.5 (odds 1 -> down to 0.3, odds 0.43) is not."""
+    thresholds = np.array([0.2, 0.3, 0.4, 0.5, 0.6])
+    counts = [{"found": round(100 * r), "labelled": 100, "false": round(100 * f), "scans": 100}
+              for r, f in zip([0.99, 0.95, 0.9, 0.85, 0.8], [0.9, 0.8, 0.2, 0.2, 0.1])]
+    cv = {("positive_1_extracted.bag", "no_background"): counts, ("positive_2_extracted.bag", "no_background"): counts}
+    assert thresholds[choose_threshold(cv, thresholds, "no_background")] == 0.6

@@ -9,6 +9,9 @@ turning, the inscribed angle (constant along a circular arc), its range, and the
 the beams on either side (positive: the neighbour is farther; a no-return neighbour counts as
 ``JUMP_CAP_M`` farther).
 
+The last columns are the cluster's context in its scan (``leg_context``): the nearest other
+return and cluster, how many returns around it.
+
 ``features_reference`` is the readable numpy version (one cluster at a time);
 ``cluster_features`` runs the same maths compiled (``numba``), all clusters in one call. A test
 holds the two equal.
@@ -21,13 +24,16 @@ import numpy as np
 
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.leg_clusters import Clusters
+from cobotsafety.sensors.leg_context import CONTEXT_NAMES, context_kernel, context_reference
 
-FEATURE_NAMES = (
+SHAPE_NAMES = (
     "n_points", "beam_span_m", "std_m", "mean_abs_dev_median_m", "width_m", "linearity_m",
     "circularity_m", "radius_m", "boundary_length_m", "boundary_regularity_m",
     "mean_curvature_1_m", "mean_angular_difference_rad", "inscribed_angle_mean_rad",
     "inscribed_angle_std_rad", "range_m", "jump_before_m", "jump_after_m", "convexity_m",
 )
+N_SHAPE = len(SHAPE_NAMES)
+FEATURE_NAMES = SHAPE_NAMES + CONTEXT_NAMES
 N_FEATURES = len(FEATURE_NAMES)
 #: Range jumps are clipped to +-JUMP_CAP_M [m]; a no-return neighbour is JUMP_CAP_M farther.
 JUMP_CAP_M = 1.0
@@ -51,10 +57,16 @@ def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.abs(np.arctan2(cross, dot))
 
 
-def features_reference(scan: LaserScan, clusters: Clusters) -> np.ndarray:
-    """Shape (c, N_FEATURES): the features of every cluster (readable numpy version)."""
-    rows = []
-    for start, stop in zip(clusters.starts.tolist(), clusters.stops.tolist()):
+def _rows(clusters: Clusters, rows: np.ndarray | None) -> np.ndarray:
+    return np.arange(clusters.count, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+
+
+def features_reference(scan: LaserScan, clusters: Clusters, rows: np.ndarray | None = None) -> np.ndarray:
+    """Shape (len(rows), N_FEATURES): the features of clusters ``rows`` (default all), their
+    context among all of ``clusters`` (readable numpy version)."""
+    rows = _rows(clusters, rows)
+    shape = []
+    for start, stop in zip(clusters.starts[rows].tolist(), clusters.stops[rows].tolist()):
         p = np.column_stack([clusters.x_m[start:stop], clusters.y_m[start:stop]])
         r = clusters.ranges_m[start:stop]
         first, last = int(clusters.beams[start]), int(clusters.beams[stop - 1])
@@ -84,7 +96,7 @@ def features_reference(scan: LaserScan, clusters: Clusters) -> np.ndarray:
         lengths = steps[:-1] * steps[1:] * chord
         curvature = np.where(lengths > 0, 2 * area2 / np.where(lengths > 0, lengths, 1.0), 0.0)
         inscribed = _angle_between(p[0] - p[1:-1], p[-1] - p[1:-1])
-        rows.append([
+        shape.append([
             m,
             range_m * abs(scan.angle_increment) * (last - first),
             float(np.sqrt(np.mean(z))),
@@ -104,14 +116,18 @@ def features_reference(scan: LaserScan, clusters: Clusters) -> np.ndarray:
             _jump(last + 1, float(r[-1]), scan.ranges, scan.valid),
             convexity,
         ])
-    return np.array(rows, dtype=float).reshape(-1, N_FEATURES)
+    return np.hstack([np.array(shape, dtype=float).reshape(-1, N_SHAPE), context_reference(clusters, rows)])
 
 
-def cluster_features(scan: LaserScan, clusters: Clusters) -> np.ndarray:
-    """Shape (c, N_FEATURES): the features of every cluster (compiled; equals the reference)."""
-    return _features_kernel(clusters.x_m, clusters.y_m, clusters.ranges_m, clusters.beams,
-                            clusters.starts, clusters.stops, scan.ranges, scan.valid,
-                            abs(float(scan.angle_increment)))
+def cluster_features(scan: LaserScan, clusters: Clusters, rows: np.ndarray | None = None) -> np.ndarray:
+    """Shape (len(rows), N_FEATURES): the features of clusters ``rows`` (default all), their
+    context among all of ``clusters`` (compiled; equals the reference)."""
+    rows = _rows(clusters, rows)
+    out = np.empty((rows.size, N_FEATURES))
+    _features_kernel(clusters.x_m, clusters.y_m, clusters.ranges_m, clusters.beams, clusters.starts,
+                     clusters.stops, rows, scan.ranges, scan.valid, abs(float(scan.angle_increment)), out)
+    context_kernel(clusters.x_m, clusters.y_m, clusters.starts, clusters.stops, rows, out, N_SHAPE)
+    return out
 
 
 @numba.njit(cache=True)
@@ -127,10 +143,10 @@ def _jump_kernel(neighbour, edge, ranges, valid):
 
 
 @numba.njit(cache=True)
-def _features_kernel(x, y, r, beams, starts, stops, scan_ranges, scan_valid, increment):
-    out = np.empty((starts.size, N_FEATURES))
-    for j in range(starts.size):
-        s, e = starts[j], stops[j]
+def _features_kernel(x, y, r, beams, starts, stops, rows, scan_ranges, scan_valid, increment, out):
+    """Write the shape features of clusters ``rows`` into ``out[:, :N_SHAPE]``."""
+    for j in range(rows.size):
+        s, e = starts[rows[j]], stops[rows[j]]
         m = e - s
         px, py = x[s:e], y[s:e]
         cx, cy = px.mean(), py.mean()
@@ -208,4 +224,3 @@ def _features_kernel(x, y, r, beams, starts, stops, scan_ranges, scan_valid, inc
         out[j, 15] = _jump_kernel(first - 1, r[s], scan_ranges, scan_valid)
         out[j, 16] = _jump_kernel(last + 1, r[e - 1], scan_ranges, scan_valid)
         out[j, 17] = convexity
-    return out

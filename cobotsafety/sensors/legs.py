@@ -1,9 +1,10 @@
 """Leg detection from one laser scan, and the torso from the legs (paper 2, section 2.1.4).
 
 ``detect_legs(..., method="learned")`` (the default) segments the scan into clusters
-(``leg_clusters``), computes their geometric features (``leg_features``) and keeps the clusters
-the bundled random forest (``leg_classifier``, trained by ``train_legs`` on the hand-labelled
-leg_tracker bags) calls legs. Each leg is placed on its axis as eq. 3 places it: one leg
+(``leg_clusters``), computes their geometric features and their context in the scan
+(``leg_features``, ``leg_context``) and keeps the clusters the bundled gradient-boosted trees
+(``leg_classifier``, trained by ``train_legs`` on the hand-labelled leg_tracker bags) call
+legs. Each leg is placed on its axis as eq. 3 places it: one leg
 radius behind the cluster's nearest (3-beam averaged) return. (The bags' labels are cluster
 centroids, ~pi/4 of a radius in front of the axis; a centroid also drifts backwards with the
 trailing returns that eq. 1's time filter leaves behind a walking leg, the nearest return
@@ -36,14 +37,14 @@ import numpy as np
 from cobotsafety.sensors.laser_filters import moving_average
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
-from cobotsafety.sensors.leg_clusters import MIN_CLUSTER_POINTS, Clusters, segment
+from cobotsafety.sensors.leg_clusters import MIN_CLUSTER_POINTS, segment
 from cobotsafety.sensors.leg_features import cluster_features
 
 #: Leg radius rho_l of eq. 3 [m].
 LEG_RADIUS_M = 0.06
 #: Widest cluster [m] (end to end) the learned detector considers: two legs side by side are
 #: ~0.4 m (the paper's rule: 0.40); the widest labelled leg cluster of the leg_tracker bags is
-#: 0.45 m. Wider clusters (walls, tables) are never legs, whatever the forest says.
+#: 0.45 m. Wider clusters (walls, tables) are never legs, whatever the classifier says.
 MAX_LEG_WIDTH_M = 0.5
 
 
@@ -83,18 +84,19 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
                  forest: LegForest | None = None, threshold_probability: float | None = None,
                  background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
                  smoothing_beams: int = 3, max_width_m: float = MAX_LEG_WIDTH_M) -> np.ndarray:
-    """Leg axes [m], shape (k, 2), of the clusters the forest calls legs (module docstring).
+    """Leg axes [m], shape (k, 2), of the clusters the classifier calls legs (module docstring).
 
     Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
     counts when its centroid is within ``max_range_m``, it is at most ``max_width_m`` wide
     (first to last return), its leg probability exceeds
-    ``threshold_probability`` (default: the forest's, chosen by cross-validation, one with and
+    ``threshold_probability`` (default: the classifier's, chosen by cross-validation, one with and
     one without a background) and, with a ``background``, it has returns in front of the
     background by ``background_margin_m``: at least a cluster's worth (``MIN_CLUSTER_POINTS``)
     or more than half of them. (A leg that passes in front of a spot where someone stood all
     recording long, or brushes past furniture, keeps a few returns in front; requiring half
     lost ~10 % of positive_2's labelled legs.)
-    ``forest``: default the bundled one.
+    ``forest``: the tree ensemble, default the bundled one. Features are computed for the
+    candidate clusters only, their context among all of the scan's clusters (as in training).
     """
     forest = bundled_forest() if forest is None else forest
     if threshold_probability is None:
@@ -118,9 +120,7 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
     if not near.any():
         return np.zeros((0, 2))
     keep = np.flatnonzero(near)
-    kept = Clusters(clusters.beams, clusters.x_m, clusters.y_m, clusters.ranges_m,
-                    clusters.starts[keep], clusters.stops[keep])
-    probability = forest.predict(cluster_features(scan, kept))
+    probability = forest.predict(cluster_features(scan, clusters, keep))  # context: all clusters
     legs = keep[probability > threshold]
     beam, nearest_m = _nearest_averaged_returns(clusters.ranges_m, clusters.starts[legs], clusters.stops[legs],
                                                 smoothing_beams)

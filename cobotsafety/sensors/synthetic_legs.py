@@ -5,8 +5,8 @@ The labelled bags hold ~450 leg clusters from two recordings, and one of them ha
 forest trained without positive_1 found few of its leg pairs (recall 0.86 with a background).
 A leg is, to a laser, a roughly circular arc of 4.5-8 cm radius; a person is two of them, apart
 or touching. ``leg_scans`` renders such scenes (``render_circles``: exact ray-circle hits plus
-Gaussian range noise) at the bags' scanner geometry, and ``leg_cluster_features`` returns the
-features of the clusters the legs make, as extra positives for ``train_legs``. Nothing here is
+Gaussian range noise) at the bags' scanner geometry, and ``scene_examples`` returns the
+features of the clusters the legs and the wall behind make, as extra examples for ``train_legs``. Nothing here is
 fitted to the bags: the shapes come from human legs, the ranges from the scanner's.
 
 ``walking_examples`` adds what the tracker's input holds besides legs: it time-filters
@@ -33,16 +33,19 @@ BEAMS = 768
 ANGLE_INCREMENT_RAD = np.radians(0.352)
 RANGE_MAX_M = 11.0
 #: Scenes rendered, and their ranges of parameters.
-SCENES = 400
+SCENES = 1000
 LEG_RADIUS_M = (0.045, 0.08)
 PERSON_RANGE_M = (0.5, 5.5)
 PERSON_BEARING_RAD = 2.0
 #: Gap [m] between the two legs' surfaces (0: touching, one cluster).
 LEG_GAP_M = (0.0, 0.3)
 RANGE_NOISE_M = (0.003, 0.015)
-#: With this probability a backdrop (constant range, at least BACKDROP_BEHIND_M behind the
-#: person) closes the scene; otherwise open space around the legs.
-BACKDROP_PROBABILITY = 0.5
+#: Behind the person, at least BACKDROP_BEHIND_M behind: with BACKDROP_PROBABILITY a backdrop
+#: of constant range closes the scene, with WALL_PROBABILITY a straight wall (its normal within
+#: WALL_TILT_RAD of the person's bearing); otherwise open space around the legs.
+BACKDROP_PROBABILITY = 0.3
+WALL_PROBABILITY = 0.35
+WALL_TILT_RAD = 0.8
 BACKDROP_BEHIND_M = 0.5
 #: A cluster whose centroid is this close to a leg centre [m] is a leg example.
 NEAR_LEG_M = 0.3
@@ -63,11 +66,18 @@ LEG_MATCH_M = 0.15
 
 
 def render_circles(circles_m: np.ndarray, noise_m: float, rng: np.random.Generator,
-                   backdrop_m: float | None = None) -> LaserScan:
+                   backdrop_m: float | None = None, wall: tuple[float, float] | None = None) -> LaserScan:
     """A scan of circles (k, 3) = (x, y, radius) [m] in the scanner frame: the nearest hit per
-    beam plus N(0, noise_m) range noise; beams that hit nothing read 0 (no return)."""
+    beam plus N(0, noise_m) range noise; beams that hit nothing (or beyond ``RANGE_MAX_M``) read
+    0 (no return). Behind them optionally a constant range ``backdrop_m`` or a straight
+    ``wall`` = (normal's angle [rad], distance [m]): the points p with p . n = distance."""
     angles = -ANGLE_INCREMENT_RAD * (BEAMS - 1) / 2 + ANGLE_INCREMENT_RAD * np.arange(BEAMS)
     ranges = np.full(BEAMS, np.inf if backdrop_m is None else backdrop_m)
+    if wall is not None:
+        facing = np.cos(angles - wall[0])
+        with np.errstate(divide="ignore"):
+            hit = np.where(facing > 0, wall[1] / facing, np.inf)
+        ranges = np.where(hit <= RANGE_MAX_M, hit, ranges)
     for cx, cy, radius in np.asarray(circles_m, dtype=float).reshape(-1, 3):
         along = np.cos(angles) * cx + np.sin(angles) * cy
         disc = along ** 2 - (cx ** 2 + cy ** 2 - radius ** 2)
@@ -87,21 +97,26 @@ def leg_scans(scenes: int = SCENES, seed: int = SEED) -> list[tuple[LaserScan, n
         first = distance * np.array([np.cos(bearing), np.sin(bearing)])
         direction = rng.uniform(0.0, 2 * np.pi)
         second = first + (radius.sum() + rng.uniform(*LEG_GAP_M)) * np.array([np.cos(direction), np.sin(direction)])
-        backdrop = (rng.uniform(distance + BACKDROP_BEHIND_M, RANGE_MAX_M)
-                    if rng.random() < BACKDROP_PROBABILITY else None)
+        behind, kind = rng.uniform(distance + BACKDROP_BEHIND_M, RANGE_MAX_M), rng.random()
+        backdrop = behind if kind < BACKDROP_PROBABILITY else None
+        wall = None
+        if BACKDROP_PROBABILITY <= kind < BACKDROP_PROBABILITY + WALL_PROBABILITY:
+            tilt = rng.uniform(-WALL_TILT_RAD, WALL_TILT_RAD)
+            wall = (bearing + tilt, behind * np.cos(tilt))  # the wall through the point `behind` the person
         circles = np.array([[*first, radius[0]], [*second, radius[1]]])
-        out.append((render_circles(circles, rng.uniform(*RANGE_NOISE_M), rng, backdrop), circles[:, :2]))
+        out.append((render_circles(circles, rng.uniform(*RANGE_NOISE_M), rng, backdrop, wall), circles[:, :2]))
     return out
 
 
-def leg_cluster_features(scan: LaserScan, legs_m: np.ndarray) -> np.ndarray:
-    """Features (c', N_FEATURES) of the clusters of ``scan`` whose centroid is within
-    ``NEAR_LEG_M`` of a leg centre in ``legs_m`` (k, 2)."""
+def scene_examples(scan: LaserScan, legs_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Features (c, N_FEATURES) and classes (c,) of the clusters of ``scan``: a leg (1) when its
+    centroid is within ``NEAR_LEG_M`` of a leg centre in ``legs_m`` (k, 2), else a piece of the
+    backdrop or wall (0; e.g. the wall between the legs' shadows)."""
     clusters = segment(scan)
     if clusters.count == 0:
-        return np.zeros((0, N_FEATURES))
+        return np.zeros((0, N_FEATURES)), np.zeros(0, dtype=int)
     distance = np.linalg.norm(clusters.centroids()[:, None] - legs_m[None], axis=-1).min(axis=1)
-    return cluster_features(scan, clusters)[distance < NEAR_LEG_M]
+    return cluster_features(scan, clusters), (distance < NEAR_LEG_M).astype(int)
 
 
 def walking_legs(t_s: np.ndarray, start_m: np.ndarray, heading_rad: float, speed_m_s: float,
