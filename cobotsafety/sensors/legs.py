@@ -82,31 +82,38 @@ def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarra
 
 def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray | None = None, *,
                  forest: LegForest | None = None, threshold_probability: float | None = None,
-                 background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
-                 smoothing_beams: int = 3, max_width_m: float = MAX_LEG_WIDTH_M) -> np.ndarray:
-    """Leg axes [m], shape (k, 2), of the clusters the classifier calls legs (module docstring).
-
-    Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
-    counts when its centroid is within ``max_range_m``, it is at most ``max_width_m`` wide
-    (first to last return), its leg probability exceeds
-    ``threshold_probability`` (default: the classifier's, chosen by cross-validation, one with and
-    one without a background) and, with a ``background``, it has returns in front of the
-    background by ``background_margin_m``: at least a cluster's worth (``MIN_CLUSTER_POINTS``)
-    or more than half of them. (A leg that passes in front of a spot where someone stood all
-    recording long, or brushes past furniture, keeps a few returns in front; requiring half
-    lost ~10 % of positive_2's labelled legs.)
-    ``forest``: the tree ensemble, default the bundled one. Features are computed for the
-    candidate clusters only, their context among all of the scan's clusters (as in training).
+                 **options) -> np.ndarray:
+    """Leg axes [m], shape (k, 2), of the clusters the classifier calls legs (module docstring):
+    the candidates of ``scored_candidates`` (``options`` go there) whose leg probability exceeds
+    ``threshold_probability`` (default: the classifier's, chosen by cross-validation, one with
+    and one without a background). ``forest``: the tree ensemble, default the bundled one.
     """
     forest = bundled_forest() if forest is None else forest
     if threshold_probability is None:
-        threshold = (forest.threshold_probability_no_background if background is None
-                     else forest.threshold_probability)
-    else:
-        threshold = threshold_probability
+        threshold_probability = (forest.threshold_probability_no_background if background is None
+                                 else forest.threshold_probability)
+    axes_m, probability = scored_candidates(scan, max_range_m, background, forest=forest, **options)
+    return axes_m[probability > threshold_probability]
+
+
+def scored_candidates(scan: LaserScan, max_range_m: float, background: np.ndarray | None, *, forest: LegForest,
+                      background_margin_m: float = 0.10, leg_radius_m: float = LEG_RADIUS_M,
+                      smoothing_beams: int = 3, max_width_m: float = MAX_LEG_WIDTH_M
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The candidate clusters' leg axes [m] (c, 2) (eq. 3) and leg probabilities (c,).
+
+    Every usable return is clustered (a clip would cut walls into leg-sized stubs); a cluster
+    is a candidate when its centroid is within ``max_range_m``, it is at most ``max_width_m``
+    wide (first to last return) and, with a ``background``, it has returns in front of the
+    background by ``background_margin_m``: at least a cluster's worth (``MIN_CLUSTER_POINTS``)
+    or more than half of them. (A leg that passes in front of a spot where someone stood all
+    recording long, or brushes past furniture, keeps a few returns in front; requiring half
+    lost ~10 % of positive_2's labelled legs.) Features are computed for the candidates only,
+    their context among all of the scan's clusters (as in training).
+    """
     clusters = segment(scan)
     if clusters.count == 0:
-        return np.zeros((0, 2))
+        return np.zeros((0, 2)), np.zeros(0)
     centroids = clusters.centroids()
     near = np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m
     last = clusters.stops - 1
@@ -118,15 +125,14 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
         count = in_front[clusters.stops] - in_front[clusters.starts]
         near &= (count >= MIN_CLUSTER_POINTS) | (2 * count > clusters.stops - clusters.starts)
     if not near.any():
-        return np.zeros((0, 2))
+        return np.zeros((0, 2)), np.zeros(0)
     keep = np.flatnonzero(near)
     probability = forest.predict(cluster_features(scan, clusters, keep))  # context: all clusters
-    legs = keep[probability > threshold]
-    beam, nearest_m = _nearest_averaged_returns(clusters.ranges_m, clusters.starts[legs], clusters.stops[legs],
+    beam, nearest_m = _nearest_averaged_returns(clusters.ranges_m, clusters.starts[keep], clusters.stops[keep],
                                                 smoothing_beams)
     theta = scan.angle_min + scan.angle_increment * clusters.beams[beam]
     rho = nearest_m + leg_radius_m  # eq. 3
-    return np.column_stack([rho * np.cos(theta), rho * np.sin(theta)]).reshape(-1, 2)
+    return np.column_stack([rho * np.cos(theta), rho * np.sin(theta)]).reshape(-1, 2), probability
 
 
 def nearest_averaged_returns_reference(ranges_m: np.ndarray, starts: np.ndarray, stops: np.ndarray,

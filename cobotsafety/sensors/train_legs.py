@@ -52,7 +52,7 @@ from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.leg_classifier import LegForest
 from cobotsafety.sensors.leg_clusters import segment
 from cobotsafety.sensors.leg_features import cluster_features
-from cobotsafety.sensors.legs import estimate_background, learned_legs, torsos_from_legs
+from cobotsafety.sensors.legs import estimate_background, scored_candidates, torsos_from_legs
 from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
 from cobotsafety.sensors.synthetic_legs import leg_scans, scene_examples, walking_examples
 
@@ -207,10 +207,11 @@ def cross_validate(bags: dict, thresholds: np.ndarray) -> dict:
             scans = bags[name]
             background = estimate_background([s for s, _ in scans])
             for setting, bg in zip(SETTINGS, (background, None)):
+                # Each scan's candidates scored once; a threshold keeps those above it, exactly
+                # what learned_legs(..., threshold_probability=t) returns.
+                scored = {id(s): scored_candidates(s, CV_RANGE_M, bg, forest=forest) for s, _ in scans}
                 result[(name, setting)] = [
-                    score_bag(scans, lambda s, t=t, bg=bg: learned_legs(s, CV_RANGE_M, bg, forest=forest,
-                                                                        threshold_probability=t))
-                    for t in thresholds]
+                    score_bag(scans, lambda s, t=t: scored[id(s)][0][scored[id(s)][1] > t]) for t in thresholds]
         print(f"  fold {held_out} done", flush=True)
     return result
 
