@@ -57,6 +57,11 @@ class Clusters(NamedTuple):
             sums.append(cumulative[self.stops] - cumulative[self.starts])
         return np.column_stack([sums[0] / n, sums[1] / n]).reshape(-1, 2)
 
+    def widths(self) -> np.ndarray:
+        """Shape (c,) [m], each cluster's width: the distance from its first to its last return."""
+        last = self.stops - 1
+        return np.hypot(self.x_m[last] - self.x_m[self.starts], self.y_m[last] - self.y_m[self.starts])
+
 
 def segment(scan: LaserScan, jump_m: float = CLUSTER_JUMP_M,
             min_points: int = MIN_CLUSTER_POINTS) -> Clusters:

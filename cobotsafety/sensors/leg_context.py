@@ -36,10 +36,7 @@ NEAR_M, AROUND_M = 0.5, 1.0
 def context_reference(clusters: Clusters, rows: np.ndarray) -> np.ndarray:
     """Shape (len(rows), N_CONTEXT): the context of clusters ``rows`` (readable version)."""
     points = np.column_stack([clusters.x_m, clusters.y_m])
-    centroids = clusters.centroids()
-    last = clusters.stops - 1
-    widths = np.hypot(clusters.x_m[last] - clusters.x_m[clusters.starts],
-                      clusters.y_m[last] - clusters.y_m[clusters.starts])
+    centroids, widths = clusters.centroids(), clusters.widths()
     out = np.zeros((len(rows), N_CONTEXT))
     for i, j in enumerate(np.asarray(rows, dtype=np.int64).tolist()):
         own = np.zeros(points.shape[0], dtype=bool)

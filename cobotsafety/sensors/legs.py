@@ -115,10 +115,7 @@ def scored_candidates(scan: LaserScan, max_range_m: float, background: np.ndarra
     if clusters.count == 0:
         return np.zeros((0, 2)), np.zeros(0)
     centroids = clusters.centroids()
-    near = np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m
-    last = clusters.stops - 1
-    near &= np.hypot(clusters.x_m[last] - clusters.x_m[clusters.starts],
-                     clusters.y_m[last] - clusters.y_m[clusters.starts]) <= max_width_m
+    near = (np.hypot(centroids[:, 0], centroids[:, 1]) <= max_range_m) & (clusters.widths() <= max_width_m)
     if background is not None:
         foreground = foreground_mask(scan, np.inf, background, background_margin_m)[clusters.beams]
         in_front = np.concatenate([[0], np.cumsum(foreground)])  # not reduceat: dropped clusters lie between
