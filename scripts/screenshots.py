@@ -27,7 +27,7 @@ def _settle(page, text: str, seconds: float) -> None:
 
 
 def planar(context, out: Path) -> None:
-    from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415
     from cobotsafety.ports import free_local_port  # noqa: PLC0415
 
     app = DemoApp(DemoConfig(port=free_local_port())).start()
@@ -44,7 +44,7 @@ def planar(context, out: Path) -> None:
 
 
 def panda_human(context, out: Path) -> None:
-    from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415
     from cobotsafety.ports import free_local_port  # noqa: PLC0415
 
     app = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port())).start()
@@ -69,7 +69,7 @@ def panda_human(context, out: Path) -> None:
 
 def trial(context, out: Path) -> None:
     from cobotsafety.ports import free_local_port  # noqa: PLC0415
-    from cobotsafety.trial.server import TrialServer  # noqa: PLC0415
+    from cobotsafety.trial.trial_app import TrialServer  # noqa: PLC0415
 
     server = TrialServer(Path(tempfile.mkdtemp(prefix="cobotsafety-shots-")), ["P01"], seed=1,
                          port=free_local_port()).start_server()

@@ -10,7 +10,7 @@ from hypothesis import given, strategies as st
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings, LoopStats, guard_command
 from cobotsafety.app.gizmo import GizmoSettings
 from cobotsafety.errors import CobotSafetyError
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 
 def test_guard_hand_worked():

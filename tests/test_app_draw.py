@@ -10,7 +10,7 @@ from cobotsafety.app.panel import status_text
 from cobotsafety.app.scene_planar import limitation_outline
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.planar.limitations import JointLimit
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 
 @pytest.mark.parametrize("direction", [[1, 0, 0], [0, -1, 0], [0.3, 0.4, -0.5], [0, 0, -1], [0, 0, 1]])

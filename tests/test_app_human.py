@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.app.demo_app import DemoApp, DemoConfig
 from cobotsafety.geometry.capsule import capsule_distance
 from cobotsafety.ports import free_local_port
 

@@ -8,7 +8,7 @@ import pytest
 
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.realtime import request_fifo
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 linux_only = pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="no POSIX scheduling API")
 

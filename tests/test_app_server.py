@@ -5,7 +5,7 @@ import pytest
 
 from cobotsafety.app import draw
 from cobotsafety.app.scene_arm import urdf_joint_values
-from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.app.demo_app import DemoApp, DemoConfig
 from cobotsafety.errors import RecordingError, UnknownRobotError
 from cobotsafety.ports import free_local_port
 
@@ -114,7 +114,7 @@ def test_seek_maximum_and_replay_button_and_paths():
     import viser
 
     from cobotsafety.app.panel import play_button_look
-    from cobotsafety.app.server import seek_maximum_s, without_server_paths
+    from cobotsafety.app.demo_app import seek_maximum_s, without_server_paths
 
     assert seek_maximum_s(31.999515) == pytest.approx(31.99)
     assert seek_maximum_s(32.0) == pytest.approx(32.0)
@@ -178,7 +178,7 @@ def test_settle_heap_collects_the_garbage_then_freezes_what_lives():
     import gc
     import weakref
 
-    from cobotsafety.app.server import settle_heap
+    from cobotsafety.app.demo_app import settle_heap
 
     class Node:
         pass

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.app.demo_app import DemoApp, DemoConfig
 from cobotsafety.app.wire_probe import WireProbe, decode_frame
 from cobotsafety.ports import free_local_port
 

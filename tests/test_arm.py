@@ -8,9 +8,9 @@ import pinocchio as pin
 import pytest
 import quadprog
 
-from cobotsafety.arm.capsules import load_capsules
+from cobotsafety.arm.robot_capsules import load_capsules
 from cobotsafety.arm.constraints import JointPositionLimits, ReachLimits, TablePlane, ZoneConstraint
-from cobotsafety.arm.fit_capsules import link_points
+from cobotsafety.tools.fit_capsules import link_points
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import ROBOTS, load_robot
 from cobotsafety.arm.step import ArmParams, build_halfspaces, mapping, all_measures
@@ -159,8 +159,8 @@ def test_three_active_constraints_slide_along_an_edge_like_a_qp():
 
 @pytest.mark.parametrize("robot_name", ROBOT_NAMES)
 def test_random_teleoperation_never_crosses_a_limit(robot_name):
-    # 1500 steps per robot here; `python -m cobotsafety.arm.invariant` runs 10^5.
-    from cobotsafety.arm.invariant import run_invariant
+    # 1500 steps per robot here; `python -m cobotsafety.tools.invariant` runs 10^5.
+    from cobotsafety.tools.invariant import run_invariant
 
     result = run_invariant(robot_name, steps=1500, seed=3)
     assert result["joint_crossings"] == 0
@@ -221,7 +221,7 @@ def test_the_extended_reach_limit_holds_while_the_arm_stretches():
 def test_the_filter_alone_keeps_the_limits_and_the_safety_net_stays_a_backstop(robot):
     """z1's orientation hold once drove its wrist into the joint limit through a mis-placed cap
     (the net then scaled 34 % of the steps); the null-space term now gives way near limits."""
-    from cobotsafety.arm.invariant import run_invariant
+    from cobotsafety.tools.invariant import run_invariant
 
     counts = run_invariant(robot, 3000)
     assert counts["joint_crossings"] == counts["zone_penetrations"] == counts["nan_steps"] == 0

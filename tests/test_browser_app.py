@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from cobotsafety.app.server import DemoApp, DemoConfig
+from cobotsafety.app.demo_app import DemoApp, DemoConfig
 from cobotsafety.ports import free_local_port
 
 pytestmark = pytest.mark.browser
@@ -188,7 +188,7 @@ def test_open_tab_follows_highlight_fig9_pull_and_refused_upload(browser, app):
     """Items 2, 7, 8: a tab opened before anything happened shows the highlight and its end, the
     Fig. 9 pull moves the gizmo with the arm to a marked target, and a refused upload says why."""
     from cobotsafety.app import draw
-    from cobotsafety.planar.scenarios import FIG9_TARGET_M
+    from cobotsafety.planar.planar_scenes import FIG9_TARGET_M
 
     page = open_page(browser, app)
     reset(page, app, "anticipative")
@@ -207,7 +207,7 @@ def test_open_tab_follows_highlight_fig9_pull_and_refused_upload(browser, app):
     assert np.linalg.norm(ee[:2] - np.array(FIG9_TARGET_M)) < 0.01, ee
     time.sleep(1.0)
     np.testing.assert_allclose(app.gizmo.position, ee, atol=1e-4)  # the gizmo came along
-    from cobotsafety.app.server import FIG9_MARKER_RGB
+    from cobotsafety.app.demo_app import FIG9_MARKER_RGB
 
     assert colour_pixels(page, FIG9_MARKER_RGB, tolerance=45) > 40, "no target marker on screen"
     drag(page, app, -8, 0.5)  # a nudge of the gizmo moves the arm a little, not back to the start

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cobotsafety.ports import free_local_port
-from cobotsafety.trial.server import TrialServer
+from cobotsafety.trial.trial_app import TrialServer
 
 pytestmark = pytest.mark.browser
 

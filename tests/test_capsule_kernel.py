@@ -10,7 +10,7 @@ from cobotsafety.human.body import BodyDimensions
 from cobotsafety.human.capsule_kernel import body_vector, five_capsules_packed
 from cobotsafety.human.conservative import StalePolicy, conservative_capsules
 from cobotsafety.sensors.imu import IMU_NAMES
-from cobotsafety.sensors.timing import QuaternionStream, rotations_at
+from cobotsafety.sensors.streams import QuaternionStream, rotations_at
 
 POLICY = StalePolicy()
 

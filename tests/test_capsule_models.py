@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cobotsafety.arm.capsules import PAPER_CAPSULES, load_capsules
+from cobotsafety.arm.robot_capsules import PAPER_CAPSULES, load_capsules
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import ROBOTS, load_robot, urdf_path
 from cobotsafety.errors import UnknownRobotError

@@ -12,7 +12,7 @@ from cobotsafety.arm.zones import BoxZone
 from cobotsafety.control.human_aware import HumanAwareTeleop
 from cobotsafety.geometry.capsule import capsule_distance
 from cobotsafety.human.body import HumanCapsules
-from cobotsafety.teleop import Teleoperated
+from cobotsafety.teleoperated import Teleoperated
 
 logging.getLogger("cobotsafety.filter").setLevel(logging.ERROR)
 DT = 0.004

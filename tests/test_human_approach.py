@@ -11,8 +11,9 @@ import pytest
 
 from cobotsafety.control.nominal_path import NominalPath, hold
 from cobotsafety.experiments.approach_metrics import run_metrics
-from cobotsafety.experiments.human_approach import PAPER_RESULTS, experiment_arm_params, load_replay, run_approach
-from cobotsafety.human.generate_recording import generate, main as generate_main, truth_path
+from cobotsafety.paper_figures import PAPER_RESULTS
+from cobotsafety.experiments.human_approach import experiment_arm_params, load_replay, run_approach
+from cobotsafety.tools.generate_recording import generate, main as generate_main, truth_path
 
 ASSETS = files("cobotsafety.assets") / "recordings"
 JSON_KEYS = {"scenario", "robot", "controller", "ssm", "min_distance_m", "min_distance_plain_m", "peak_ee_speed_m_s",

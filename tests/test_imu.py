@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions
-from cobotsafety.human.capsules import five_capsules, one_capsule
+from cobotsafety.human.body_capsules import five_capsules, one_capsule
 from cobotsafety.sensors.imu import arm_chain, base_orientation, calibrate
 
 BODY = BodyDimensions(d1_m=0.2, d2_m=0.2, d3_m=0.3, d4_m=0.28, chest_height_m=0.6)

@@ -13,7 +13,7 @@ from sklearn.ensemble import GradientBoostingClassifier, RandomForestClassifier
 
 from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest, bundled_model_path
 from cobotsafety.sensors.leg_features import FEATURE_NAMES
-from cobotsafety.sensors.train_legs import labelled_examples, load_bags
+from cobotsafety.tools.train_legs import labelled_examples, load_bags
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +106,7 @@ def test_malformed_model_files_are_refused(tmp_path):
 
 def test_training_is_deterministic(real_features):
     """The training command's recipe (fixed seed) gives the same forest twice."""
-    from cobotsafety.sensors.train_legs import fit
+    from cobotsafety.tools.train_legs import fit
 
     x, y = real_features
     a = LegForest.from_sklearn(fit(x, y), 0.5)

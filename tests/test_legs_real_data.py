@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cobotsafety.sensors import train_legs
-from cobotsafety.sensors.evaluate_legs import evaluate_all
+from cobotsafety.tools.evaluate_legs import evaluate_all
 from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
 from cobotsafety.sensors.legs import detect_legs, estimate_background, learned_legs
 

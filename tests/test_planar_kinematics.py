@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from cobotsafety import slide
-from cobotsafety.planar.arm import Kinematics, PlanarArm
+from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
 from cobotsafety.planar.project2d import project_2d
 
 ARM = PlanarArm()

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cobotsafety.planar.arm import Kinematics, PlanarArm
+from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
 from cobotsafety.planar.limitations import (
     CircleKeepIn,
     CircleKeepOut,

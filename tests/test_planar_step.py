@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from cobotsafety.planar.arm import Kinematics, PlanarArm
+from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
 from cobotsafety.planar.limitations import PolygonZone
-from cobotsafety.planar.scenarios import arm_limitations, demo_scene
-from cobotsafety.planar.step import PlanarScene, PlanarState, measures, step
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_scenes import arm_limitations, demo_scene
+from cobotsafety.planar.planar_step import PlanarScene, PlanarState, measures, step
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 
 def run_random_steps(scene, method, n_steps, seed):
@@ -127,11 +127,11 @@ def test_baselines_do_not_import_the_step():
     tree = ast.parse(inspect.getsource(baselines))
     imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
     imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
-    assert "cobotsafety.planar.step" not in imported
+    assert "cobotsafety.planar.planar_step" not in imported
 
 
 def _all_scenes():
-    from cobotsafety.planar.scenarios import conditioning_scene, fig9_scene
+    from cobotsafety.planar.planar_scenes import conditioning_scene, fig9_scene
 
     return [demo_scene(), fig9_scene("a"), fig9_scene("b"), conditioning_scene()]
 

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from cobotsafety.human.body import CAPSULE_NAMES_1, CAPSULE_NAMES_5, BodyDimensions
 from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left
-from cobotsafety.sensors.timing import QuaternionStream, VectorStream
+from cobotsafety.sensors.streams import QuaternionStream, VectorStream
 
 BODY = BodyDimensions()
 POLICY = StalePolicy(laser_stale_after_s=0.1, imu_stale_after_s=0.05, speed_m_s=1.6)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cobotsafety.sensors.train_legs import choose_threshold
+from cobotsafety.tools.train_legs import choose_threshold
 
 THRESHOLDS = np.array([0.02, 0.04, 0.08, 0.12, 0.2, 0.4])
 

@@ -221,7 +221,7 @@ def test_simulated_sessions_end_to_end(tmp_path):
 def test_trial_server_runs_a_trial_on_the_planar_and_the_3d_arm(tmp_path, robot):
     """Without a browser: the operator starts a trial, the gizmo drives the robot to the first
     target, and the trial's progress follows."""
-    from cobotsafety.trial.server import TrialServer
+    from cobotsafety.trial.trial_app import TrialServer
 
     server = TrialServer(tmp_path, ["P01"], seed=0, port=free_local_port(), robot=robot)
     try:

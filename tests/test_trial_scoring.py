@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 from cobotsafety.trial.course import arm_course, planar_course
 from cobotsafety.trial.scoring import ANSWER_WINDOW_S, error_score, stimulus_scored
 from cobotsafety.trial.session import TrialRun, simulate_trial

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from cobotsafety.arm.capsules import RobotCapsule, load_capsules
+from cobotsafety.arm.robot_capsules import RobotCapsule, load_capsules
 from cobotsafety.arm.robots import DEFAULT_ROBOT, RobotSpec, load_robot
 
 
@@ -35,7 +35,7 @@ class RobotState:
 
     def use_capsules(self, capsule_model: str) -> None:
         """Cover the links with the ``capsule_model`` table ("fitted" or "paper", see
-        ``cobotsafety.arm.capsules``) and update the kinematics."""
+        ``cobotsafety.arm.robot_capsules``) and update the kinematics."""
         self.capsule_model = capsule_model
         self.capsules: list[RobotCapsule] = load_capsules(self.name, capsule_model)
         self.capsule_joint_ids = [int(self.model.getJointId(c.joint)) for c in self.capsules]

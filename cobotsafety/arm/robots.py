@@ -125,7 +125,7 @@ def _planar_model():
     """Paper 1's RR arm (two 0.30 m links, revolute about z) as a pinocchio model."""
     import pinocchio as pin
 
-    from cobotsafety.planar.arm import PlanarArm
+    from cobotsafety.planar.rr_arm import PlanarArm
 
     arm = PlanarArm()
     model = pin.Model()

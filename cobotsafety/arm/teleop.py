@@ -1,4 +1,4 @@
-"""``ArmTeleop``: a pinocchio arm behind the ``cobotsafety.teleop.Teleoperated`` protocol."""
+"""``ArmTeleop``: a pinocchio arm behind the ``cobotsafety.teleoperated.Teleoperated`` protocol."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
 from cobotsafety.arm.step import ArmParams, step
 from cobotsafety.arm.zones import BoxZone, HalfSpaceZone, SphereZone
-from cobotsafety.teleop import METHODS, StepReport
+from cobotsafety.teleoperated import METHODS, StepReport
 
 logger = logging.getLogger(__name__)
 

@@ -13,11 +13,11 @@ import json
 from cobotsafety.cli._dispatch import add_modules
 
 BENCHES: dict[str, tuple[str, str]] = {
-    "planar": ("cobotsafety.bench.planar", "one full planar RR step (limitations A-G, projection, integration)"),
-    "arm": ("cobotsafety.bench.arm", "one full 3D arm step (FK, Jacobians, constraints, projection, integration)"),
-    "distance": ("cobotsafety.bench.distance", "capsule-capsule distance, 15 and 1e5 pairs, against coal"),
-    "sensors": ("cobotsafety.bench.sensors", "one laser scan + 5 IMU samples -> 5 human capsules"),
-    "app": ("cobotsafety.bench.app", "demo control-loop rate, jitter, latency and start-up time"),
+    "planar": ("cobotsafety.bench.planar_bench", "one full planar RR step (limitations A-G, projection, integration)"),
+    "arm": ("cobotsafety.bench.arm_bench", "one full 3D arm step (FK, Jacobians, constraints, projection, integration)"),
+    "distance": ("cobotsafety.bench.distance_bench", "capsule-capsule distance, 15 and 1e5 pairs, against coal"),
+    "sensors": ("cobotsafety.bench.sensors_bench", "one laser scan + 5 IMU samples -> 5 human capsules"),
+    "app": ("cobotsafety.bench.app_bench", "demo control-loop rate, jitter, latency and start-up time"),
 }
 
 
@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from cobotsafety.bench.timing import machine_description
+    from cobotsafety.bench.stopwatch import machine_description
 
     result = args._target_run(args)
     if getattr(args, "json", False):

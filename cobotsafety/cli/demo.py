@@ -20,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415 - heavy (viser)
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415 - heavy (viser)
 
     scene = args.scene or ("arm" if args.robot not in (None, "planar") else "planar")
     app = DemoApp(DemoConfig(scene=scene, robot=args.robot, replay=args.replay, host=args.host,

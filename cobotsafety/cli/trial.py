@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.simulate:
         import time
 
-        from cobotsafety.trial.server import TrialServer
+        from cobotsafety.trial.trial_app import TrialServer
 
         participants = [p.strip() for p in args.participants.split(",") if p.strip()]
         robot = "planar" if args.scene == "planar" else args.robot

@@ -30,7 +30,7 @@ from cobotsafety.control.potential_field import PotentialFieldParams, potential_
 from cobotsafety.control.ssm import SsmParams, ssm_halfspaces
 from cobotsafety.human.body import HumanCapsules
 from cobotsafety.projection import slide
-from cobotsafety.teleop import StepReport
+from cobotsafety.teleoperated import StepReport
 
 CONTROLLERS = ("anticipative", "reactive", "stop")
 #: How long the anticipative arm yields [s] once contradicting retreats left it no motion.

@@ -32,7 +32,7 @@ from cobotsafety.arm.step import ArmParams, all_measures, mapping, reactive_comm
 from cobotsafety.arm.teleop import default_zones
 from cobotsafety.control.controllers import CONTROLLERS, HumanAwareArm
 from cobotsafety.human.body import HumanCapsules
-from cobotsafety.teleop import METHODS, StepReport
+from cobotsafety.teleoperated import METHODS, StepReport
 
 
 #: Yield and return: the attraction to the held point [1/s], its speed cap [m/s], and the

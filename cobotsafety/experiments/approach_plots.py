@@ -15,7 +15,7 @@ def plot(runs, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cobotsafety.experiments.human_approach import PAPER_RESULTS
+    from cobotsafety.paper_figures import PAPER_RESULTS
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []

@@ -4,7 +4,7 @@
         [--replay FILE] [--controller C ...] [--ssm] [--capsules paper|fitted] [--json] [--out DIR]
 
 A bundled recording (``assets/recordings/<scenario>.jsonl.gz``, made by
-``cobotsafety.human.generate_recording``) or ``--replay`` (a recording in the documented format,
+``cobotsafety.tools.generate_recording``) or ``--replay`` (a recording in the documented format,
 or a ROS bag: laser only, 1-capsule human) is replayed through the whole sensor pipeline (laser
 legs -> torso, IMUs -> arms) causally: at control time t only samples stamped <= t are used.
 The control loop runs at paper 2's 275 Hz; the robot follows its task path
@@ -63,8 +63,6 @@ SCENARIO_PROTECTED_M = {"exp1": 0.65, "exp2": 0.65}
 #: The attraction to the task path (eq. 15) saturates here; the arm's own cap (below) is lower.
 TASK_SPEED_LIMIT_M_S = 0.5
 DEFAULT_ROBOT = "iiwa"
-#: Paper 2, section 5: minimum distance kept [m] and peak end-effector speed [m/s].
-PAPER_RESULTS = {"exp1": (0.431, 0.355), "exp2": (0.393, 0.548)}
 #: Per-axis end-effector speed cap [m/s] of the robot in each of paper 2's experiments: the
 #: paper's peak / sqrt(3) rounded down (0.355 -> 0.20, 0.548 -> 0.30), so that no direction
 #: exceeds the speed the paper's robot reached.

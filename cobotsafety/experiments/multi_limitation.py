@@ -76,8 +76,8 @@ def figure_reactive():
 
 
 def run_scenario(scenario: str, method: str, params: DriveParams = DriveParams(), reactive=None) -> RunResult:
-    from cobotsafety.planar.scenarios import FIG9_TARGET_M, fig9_scene
-    from cobotsafety.planar.teleop import PlanarTeleop
+    from cobotsafety.planar.planar_scenes import FIG9_TARGET_M, fig9_scene
+    from cobotsafety.planar.planar_teleop import PlanarTeleop
 
     scene = fig9_scene(scenario, reactive=reactive or figure_reactive())
     zones = [lim for lim in scene.limitations if lim.name.startswith("F")]
@@ -137,7 +137,7 @@ def plot(results: list[RunResult], out_dir: Path) -> list[Path]:
     from matplotlib.patches import Circle, Polygon
 
     from cobotsafety.planar.limitations import PolygonZone, RectangleZone
-    from cobotsafety.planar.scenarios import FIG9_START_M, FIG9_TARGET_M, fig9_scene, joint_2_circle_radius_m
+    from cobotsafety.planar.planar_scenes import FIG9_START_M, FIG9_TARGET_M, fig9_scene, joint_2_circle_radius_m
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []

@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions, HumanCapsules
 from cobotsafety.human.capsule_kernel import five_capsules_packed
-from cobotsafety.human.capsules import five_capsules, one_capsule
+from cobotsafety.human.body_capsules import five_capsules, one_capsule
 
 #: ISO 13855 walking speed K [m/s].
 ISO13855_WALKING_SPEED_M_S = 1.6

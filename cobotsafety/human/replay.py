@@ -26,7 +26,7 @@ from cobotsafety.sensors.imu import IMU_NAMES
 from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.legs import estimate_background
 from cobotsafety.sensors.scanner_pose import ScannerPose
-from cobotsafety.sensors.timing import QuaternionStream
+from cobotsafety.sensors.streams import QuaternionStream
 
 
 class Replay:

@@ -33,7 +33,7 @@ from cobotsafety.sensors.laser_scan import LaserScan
 from cobotsafety.sensors.legs import detect_legs
 from cobotsafety.sensors.person_tracker import Person, PersonTracker, PersonTrackerParams
 from cobotsafety.sensors.scanner_pose import ScannerPose
-from cobotsafety.sensors.timing import QuaternionStream, VectorStream, quaternion_brackets, rotations_at
+from cobotsafety.sensors.streams import QuaternionStream, VectorStream, quaternion_brackets, rotations_at
 
 #: Paper 2 clips the ranges at 1400 mm.
 MAX_RANGE_M = 1.4

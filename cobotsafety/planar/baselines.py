@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from cobotsafety.planar.arm import Kinematics
+from cobotsafety.planar.rr_arm import Kinematics
 from cobotsafety.planar.limitations import PlanarLimitation
 
 

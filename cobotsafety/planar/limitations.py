@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cobotsafety.constraint import Constraint, HalfSpaces, approach_bound
-from cobotsafety.planar.arm import Kinematics
+from cobotsafety.planar.rr_arm import Kinematics
 
 
 #: One measure is a plain tuple ``(distance, gx, gy, name, angular)`` (tuples, not a NamedTuple:

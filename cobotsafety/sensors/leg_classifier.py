@@ -1,6 +1,6 @@
 """The leg classifier: tree ensembles evaluated from their bundled arrays (no sklearn, no pickle).
 
-``python -m cobotsafety.sensors.train_legs`` trains a scikit-learn ``GradientBoostingClassifier``
+``python -m cobotsafety.tools.train_legs`` trains a scikit-learn ``GradientBoostingClassifier``
 on cluster features (``leg_features``) and exports its trees as plain arrays to
 ``assets/legs/leg_forest.npz``; a ``RandomForestClassifier`` packs the same way. All trees are
 packed into one node table:

@@ -13,7 +13,7 @@ from cobotsafety.trial.simulated_participant import SimulatedParticipant
 
 def make_robot(scene: str):
     if scene == "planar":
-        from cobotsafety.planar.teleop import PlanarTeleop
+        from cobotsafety.planar.planar_teleop import PlanarTeleop
 
         return PlanarTeleop(), planar_course()
     from cobotsafety.arm.teleop import ArmTeleop

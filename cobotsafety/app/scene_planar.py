@@ -23,7 +23,7 @@ from cobotsafety.planar.limitations import (
     PolygonZone,
     RectangleZone,
 )
-from cobotsafety.planar.teleop import PlanarTeleop
+from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 LINK_RADIUS_M = 0.012
 ROOT = "/planar"

@@ -20,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> dict:
     import numpy as np
 
-    from cobotsafety.bench.timing import median_us
+    from cobotsafety.bench.stopwatch import median_us
     from cobotsafety.human.recording import bundled_recording, load_recording
     from cobotsafety.human.tracker import HumanTracker
     from cobotsafety.sensors.imu import IMU_NAMES

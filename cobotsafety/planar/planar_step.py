@@ -25,7 +25,7 @@ import logging
 import math
 from dataclasses import dataclass, field
 
-from cobotsafety.planar.arm import Kinematics, PlanarArm
+from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
 from cobotsafety.planar.baselines import ReactiveParams, reactive_command
 from cobotsafety.planar.limitations import Damping, Measure, PlanarLimitation, rows_from_measures
 from cobotsafety.planar.project2d import project_2d

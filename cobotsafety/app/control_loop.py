@@ -27,7 +27,7 @@ from cobotsafety.app.gizmo import GizmoSettings, offset_to_velocity
 from cobotsafety.app.realtime import request_fifo
 from cobotsafety.app.tick_schedule import TickSchedule
 from cobotsafety.errors import CobotSafetyError
-from cobotsafety.teleop import METHODS, StepReport, Teleoperated
+from cobotsafety.teleoperated import METHODS, StepReport, Teleoperated
 
 logger = logging.getLogger(__name__)
 

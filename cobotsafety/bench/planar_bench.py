@@ -26,10 +26,10 @@ def run(args: argparse.Namespace) -> dict:
     import os
     import time
 
-    from cobotsafety.bench.timing import machine_description
-    from cobotsafety.planar.arm import Kinematics
-    from cobotsafety.planar.scenarios import demo_scene
-    from cobotsafety.planar.step import PlanarState, measures, step
+    from cobotsafety.bench.stopwatch import machine_description
+    from cobotsafety.planar.rr_arm import Kinematics
+    from cobotsafety.planar.planar_scenes import demo_scene
+    from cobotsafety.planar.planar_step import PlanarState, measures, step
 
     scene = demo_scene()
     t1, t2 = scene.arm.inverse_kinematics(-0.2, 0.03)

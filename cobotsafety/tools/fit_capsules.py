@@ -1,6 +1,6 @@
 """Fit one capsule per moving link to its collision geometry; write assets/capsules/<robot>.json.
 
-Run ``python -m cobotsafety.arm.fit_capsules [ROBOT ...]``. For each joint, every collision
+Run ``python -m cobotsafety.tools.fit_capsules [ROBOT ...]``. For each joint, every collision
 vertex attached to it (meshes, or points sampled on primitive cylinders) is expressed in the
 joint's frame; the capsule axis is the vertices' principal direction, the radius the largest
 distance from that axis, and the segment the shortest one along the axis that keeps every
@@ -85,14 +85,14 @@ def fit_robot(name: str) -> dict:
             p0, p1, radius = fit_capsule(points)
             capsules.append({"name": joint, "joint": joint, "p0": [round(float(x), 6) for x in p0],
                              "p1": [round(float(x), 6) for x in p1], "radius_m": round(radius + 5e-7, 6)})
-    return {"robot": name, "method": "cobotsafety.arm.fit_capsules (collision geometry)", "capsules": capsules}
+    return {"robot": name, "method": "cobotsafety.tools.fit_capsules (collision geometry)", "capsules": capsules}
 
 
 def paper_table(name: str) -> dict:
     """Paper 2's capsule table for robot ``name`` (first entry: the fitted base capsule)."""
     import pinocchio as pin
 
-    from cobotsafety.arm.capsules import PAPER_CAPSULES, load_capsules
+    from cobotsafety.arm.robot_capsules import PAPER_CAPSULES, load_capsules
     from cobotsafety.arm.robots import load_robot
 
     model, _, spec = load_robot(name)
@@ -115,7 +115,7 @@ def paper_table(name: str) -> dict:
         ends = [data.oMi[joint].actInv(p) for p in (start, start + length * direction)]
         capsules.append({"name": label, "joint": model.names[joint], "p0": [round(float(x), 6) for x in ends[0]],
                          "p1": [round(float(x), 6) for x in ends[1]], "radius_m": radius})
-    return {"robot": name, "method": "cobotsafety.arm.fit_capsules (paper 2, section 5: 3 capsules)",
+    return {"robot": name, "method": "cobotsafety.tools.fit_capsules (paper 2, section 5: 3 capsules)",
             "capsules": capsules}
 
 
@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     from cobotsafety.arm.robots import ROBOTS
 
     names = (argv if argv is not None else sys.argv[1:]) or list(ROBOTS)
-    out_dir = Path(__file__).resolve().parents[2] / "assets" / "capsules"
+    out_dir = Path(__file__).resolve().parents[1] / "assets" / "capsules"
     out_dir.mkdir(parents=True, exist_ok=True)
     for name in names:
         table = fit_robot(name)

@@ -340,7 +340,7 @@ class DemoApp:
         target, and control is released when the arm arrives (within ``FIG9_ARRIVED_M``) or
         stalls, or as soon as a user grabs the gizmo.
         """
-        from cobotsafety.planar.scenarios import FIG9_TARGET_M  # noqa: PLC0415
+        from cobotsafety.planar.planar_scenes import FIG9_TARGET_M  # noqa: PLC0415
 
         self.switch_scene(PLANAR, PLANAR_SCENES[2])
         target = np.array([*FIG9_TARGET_M, 0.0])

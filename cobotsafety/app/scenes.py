@@ -22,8 +22,8 @@ class PlanarScene:
 
     def __init__(self, server: viser.ViserServer, label: str = PLANAR_SCENES[0]):
         from cobotsafety.app.scene_planar import PlanarView  # noqa: PLC0415
-        from cobotsafety.planar.scenarios import demo_scene, fig9_scene  # noqa: PLC0415
-        from cobotsafety.planar.teleop import PlanarTeleop  # noqa: PLC0415
+        from cobotsafety.planar.planar_scenes import demo_scene, fig9_scene  # noqa: PLC0415
+        from cobotsafety.planar.planar_teleop import PlanarTeleop  # noqa: PLC0415
 
         scenes = {PLANAR_SCENES[1]: lambda: fig9_scene("a"), PLANAR_SCENES[2]: lambda: fig9_scene("b")}
         self.name = PLANAR

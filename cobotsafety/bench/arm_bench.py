@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> dict:
     import pinocchio as pin
 
     from cobotsafety.arm.step import ArmParams, all_measures, build_halfspaces, mapping
-    from cobotsafety.bench.timing import machine_description
+    from cobotsafety.bench.stopwatch import machine_description
 
     teleop, q_start, previous, v = _pressing_teleop(args.robot, fast=True)
     reference, _, _, _ = _pressing_teleop(args.robot, fast=False)

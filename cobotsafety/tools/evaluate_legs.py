@@ -1,6 +1,6 @@
-"""Measure the leg detectors on real labelled scans: ``python -m cobotsafety.sensors.evaluate_legs``.
+"""Measure the leg detectors on real labelled scans: ``python -m cobotsafety.tools.evaluate_legs``.
 
-``python -m cobotsafety.sensors.evaluate_legs [--data DIR] [--bags A.bag B.bag ...] [--json]``
+``python -m cobotsafety.tools.evaluate_legs [--data DIR] [--bags A.bag B.bag ...] [--json]``
 
 Labelled bags (default ``positive_1/2_extracted.bag`` of ``../shared/data/leg_tracker``): a
 LaserScan topic and a PoseArray of hand-labelled leg clusters per scan (scan frame). Bags

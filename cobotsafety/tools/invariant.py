@@ -1,4 +1,4 @@
-"""Random teleoperation runs that count limit crossings: ``python -m cobotsafety.arm.invariant``.
+"""Random teleoperation runs that count limit crossings: ``python -m cobotsafety.tools.invariant``.
 
 Commands hold a random direction (speeds up to 1 m/s, above the 0.5 m/s cap) for 100 steps at
 dt = 2 ms, among the default zones. Counts joint-limit crossings (beyond 1e-9 rad), capsule-zone

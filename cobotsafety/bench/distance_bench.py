@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> dict:
     import coal
 
     from cobotsafety import capsule_distance
-    from cobotsafety.bench.timing import median_us
+    from cobotsafety.bench.stopwatch import median_us
 
     rng = np.random.default_rng(0)
 

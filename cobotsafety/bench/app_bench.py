@@ -154,8 +154,8 @@ def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
 def run(args: argparse.Namespace) -> dict:
     from playwright.sync_api import sync_playwright  # noqa: PLC0415
 
-    from cobotsafety.app.server import DemoApp, DemoConfig  # noqa: PLC0415
-    from cobotsafety.bench.timing import machine_description  # noqa: PLC0415
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415
+    from cobotsafety.bench.stopwatch import machine_description  # noqa: PLC0415
 
     result: dict = {"name": "app"}
     with sync_playwright() as playwright:

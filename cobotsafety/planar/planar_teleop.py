@@ -1,13 +1,13 @@
-"""``PlanarTeleop``: the planar scene behind the ``cobotsafety.teleop.Teleoperated`` protocol."""
+"""``PlanarTeleop``: the planar scene behind the ``cobotsafety.teleoperated.Teleoperated`` protocol."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from cobotsafety.planar.arm import Kinematics
-from cobotsafety.planar.scenarios import FIG9_START_M, demo_scene
-from cobotsafety.planar.step import PlanarScene, PlanarState, step
-from cobotsafety.teleop import METHODS, StepReport
+from cobotsafety.planar.rr_arm import Kinematics
+from cobotsafety.planar.planar_scenes import FIG9_START_M, demo_scene
+from cobotsafety.planar.planar_step import PlanarScene, PlanarState, step
+from cobotsafety.teleoperated import METHODS, StepReport
 
 
 class PlanarTeleop:

@@ -2,7 +2,7 @@
 
 The tables live in ``assets/capsules/<robot>.json`` (``model="fitted"``) and
 ``assets/capsules/<robot>-paper.json`` (``model="paper"``), both made by ``python -m
-cobotsafety.arm.fit_capsules``; each capsule is a segment fixed in a joint's frame and a radius.
+cobotsafety.tools.fit_capsules``; each capsule is a segment fixed in a joint's frame and a radius.
 
 Paper 2's model (section 5, Fig. 9): two identical capsules of 400 mm by 230 mm diameter on the
 upper arm and the forearm, one of 250 mm by 115 mm on the tool. "Height" is read as the axis

@@ -1,6 +1,6 @@
 """The control panel: every GUI handle made once by ``make_panel`` and kept in ``Panel``.
 
-Callbacks are wired by ``cobotsafety.app.server``; this module only lays the widgets out.
+Callbacks are wired by ``cobotsafety.app.demo_app``; this module only lays the widgets out.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import viser
 
 from cobotsafety.app.gizmo import GizmoSettings
-from cobotsafety.teleop import METHODS
+from cobotsafety.teleoperated import METHODS
 
 PLANAR_SCENES = ("all limitations A-G", "Fig. 9 a (blocked)", "Fig. 9 b (gap)")
 HINT = ("**Drag the arrow handle** at the end-effector: its offset from the end-effector is the "

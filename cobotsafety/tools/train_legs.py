@@ -1,4 +1,4 @@
-"""Train the leg classifier on the leg_tracker bags and bundle it: ``python -m cobotsafety.sensors.train_legs``.
+"""Train the leg classifier on the leg_tracker bags and bundle it: ``python -m cobotsafety.tools.train_legs``.
 
 Training set (``../shared/data/leg_tracker``, BSD-3, angusleigh/leg_tracker):
 
@@ -54,10 +54,10 @@ from cobotsafety.sensors.leg_clusters import segment
 from cobotsafety.sensors.leg_features import cluster_features
 from cobotsafety.sensors.legs import estimate_background, scored_candidates, torsos_from_legs
 from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
-from cobotsafety.sensors.synthetic_legs import leg_scans, scene_examples, walking_examples
+from cobotsafety.tools.synthetic_legs import leg_scans, scene_examples, walking_examples
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "leg_tracker"
-DEFAULT_OUT = Path(__file__).resolve().parents[2] / "assets" / "legs" / "leg_forest.npz"
+DEFAULT_OUT = Path(__file__).resolve().parents[1] / "assets" / "legs" / "leg_forest.npz"
 POSITIVE_BAGS = ("positive_1_extracted.bag", "positive_2_extracted.bag")
 NEGATIVE_BAG, NEGATIVE_TOPICS = "negative_2.bag", ("/left_scan", "/rear_scan", "/right_scan")
 #: A cluster whose centroid is this close to a label [m] is a leg.

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from cobotsafety.planar.arm import PlanarArm
+from cobotsafety.planar.rr_arm import PlanarArm
 from cobotsafety.planar.baselines import ReactiveParams
 from cobotsafety.planar.limitations import (
     CircleKeepIn,
@@ -21,7 +21,7 @@ from cobotsafety.planar.limitations import (
     PolygonZone,
     RectangleZone,
 )
-from cobotsafety.planar.step import PlanarScene
+from cobotsafety.planar.planar_step import PlanarScene
 
 #: Fig. 9's start position [m].
 FIG9_START_M = (-0.2, 0.03)

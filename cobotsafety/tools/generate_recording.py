@@ -1,6 +1,6 @@
 """Generate a bundled recording from a scripted human, with its ground truth.
 
-    python -m cobotsafety.human.generate_recording --scenario exp1|exp2|reach-over \
+    python -m cobotsafety.tools.generate_recording --scenario exp1|exp2|reach-over \
         --out assets/recordings/NAME.jsonl.gz
 
 writes the recording and ``NAME_truth.npz`` beside it (same stem + ``_truth.npz``).
@@ -9,7 +9,7 @@ Deterministic (``--seed``, default 7): the same arguments give the same bytes.
 Scene (robot base frame: origin at the robot base, z = 0 the table top, floor at z = -0.75 m):
 the laser (SICK TiM-like: 271 beams over 270 deg, 1 deg steps, 8 m, 50 Hz) sits at leg height
 where the scenario puts it (``scenario.scanner_xy_m``, ``scanner_yaw_rad``). The human
-(``BODY``) follows the scenario's script (``cobotsafety.human.scenarios``: where the torso
+(``BODY``) follows the scenario's script (``cobotsafety.tools.scripted_people``: where the torso
 walks and faces, what the arms reach for; walking swings the arms and alternates the feet).
 Five IMUs (~300 Hz, jittered stamps)
 read their orientation in their own reference frame (an unknown heading each) with noise and
@@ -30,9 +30,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions
-from cobotsafety.human.capsules import five_capsules
+from cobotsafety.human.body_capsules import five_capsules
 from cobotsafety.human.recording import Recording, write_recording
-from cobotsafety.human.scenarios import SCENARIOS, Scenario
+from cobotsafety.tools.scripted_people import SCENARIOS, Scenario
 from cobotsafety.sensors.imu import IMU_NAMES
 from cobotsafety.sensors.scanner_pose import ScannerPose
 
