@@ -63,57 +63,65 @@ def _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f
 
 
 @numba.njit(cache=True)
+def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover - compiled
+    """One pair: end points (3,), radii in; the distance [m] out, the axes' closest points into
+    ``point_a``, ``point_b`` (3,). The one implementation ``capsule_distance`` and the arm's
+    compiled step both run."""
+    d1x, d1y, d1z = a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]
+    d2x, d2y, d2z = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
+    rx, ry, rz = a0[0] - b0[0], a0[1] - b0[1], a0[2] - b0[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * rx + d1y * ry + d1z * rz
+    f = d2x * rx + d2y * ry + d2z * rz
+    if a <= _EPS_LENGTH2 and e <= _EPS_LENGTH2:  # two points
+        s, t = 0.0, 0.0
+    elif a <= _EPS_LENGTH2:  # A is a point: its projection on B
+        s, t = 0.0, min(max(f / e, 0.0), 1.0)
+    elif e <= _EPS_LENGTH2:  # B is a point: its projection on A
+        s, t = min(max(-c / a, 0.0), 1.0), 0.0
+    else:
+        denom = a * e - b * b
+        # Non-parallel: closest points of the lines, s clamped; parallel: start at s = 0.
+        s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-12 * a * e else 0.0
+        # t for that s; where t leaves [0, 1], clamp it and recompute s.
+        t = (b * s + f) / e
+        if t < 0.0:
+            s, t = min(max(-c / a, 0.0), 1.0), 0.0
+        elif t > 1.0:
+            s, t = min(max((b - c) / a, 0.0), 1.0), 1.0
+        if denom <= _ILL_CONDITIONED_SIN2 * a * e:
+            # Nearly parallel: rounding in the 2x2 solve can clamp to the wrong end, or
+            # land far along the flat valley of the distance. Its minimum over [0, 1]^2
+            # is at the lines' closest points (when inside) or on an edge, i.e. an end
+            # point of one segment against the other: keep the smallest of the candidates.
+            best = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s, t)
+            s_in, t_in = _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f, denom)
+            if 0.0 <= s_in <= 1.0 and 0.0 <= t_in <= 1.0:
+                g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_in, t_in)
+                if g < best:
+                    best, s, t = g, s_in, t_in
+            for end in (0.0, 1.0):
+                t_end = min(max((f + end * b) / e, 0.0), 1.0)  # A's end against B
+                g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, end, t_end)
+                if g < best:
+                    best, s, t = g, end, t_end
+                s_end = min(max((end * b - c) / a, 0.0), 1.0)  # B's end against A
+                g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_end, end)
+                if g < best:
+                    best, s, t = g, s_end, end
+    point_a[0], point_a[1], point_a[2] = a0[0] + s * d1x, a0[1] + s * d1y, a0[2] + s * d1z
+    point_b[0], point_b[1], point_b[2] = b0[0] + t * d2x, b0[1] + t * d2y, b0[2] + t * d2z
+    gx, gy, gz = point_a[0] - point_b[0], point_a[1] - point_b[1], point_a[2] - point_b[2]
+    return np.sqrt(gx * gx + gy * gy + gz * gz) - ra - rb
+
+
+@numba.njit(cache=True)
 def _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # pragma: no cover - compiled
     """One pair per row: end points (n, 3), radii (n,) in; distances (n,), points (n, 3) out."""
     for k in range(a0.shape[0]):
-        d1x, d1y, d1z = a1[k, 0] - a0[k, 0], a1[k, 1] - a0[k, 1], a1[k, 2] - a0[k, 2]
-        d2x, d2y, d2z = b1[k, 0] - b0[k, 0], b1[k, 1] - b0[k, 1], b1[k, 2] - b0[k, 2]
-        rx, ry, rz = a0[k, 0] - b0[k, 0], a0[k, 1] - b0[k, 1], a0[k, 2] - b0[k, 2]
-        a = d1x * d1x + d1y * d1y + d1z * d1z
-        e = d2x * d2x + d2y * d2y + d2z * d2z
-        b = d1x * d2x + d1y * d2y + d1z * d2z
-        c = d1x * rx + d1y * ry + d1z * rz
-        f = d2x * rx + d2y * ry + d2z * rz
-        if a <= _EPS_LENGTH2 and e <= _EPS_LENGTH2:  # two points
-            s, t = 0.0, 0.0
-        elif a <= _EPS_LENGTH2:  # A is a point: its projection on B
-            s, t = 0.0, min(max(f / e, 0.0), 1.0)
-        elif e <= _EPS_LENGTH2:  # B is a point: its projection on A
-            s, t = min(max(-c / a, 0.0), 1.0), 0.0
-        else:
-            denom = a * e - b * b
-            # Non-parallel: closest points of the lines, s clamped; parallel: start at s = 0.
-            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-12 * a * e else 0.0
-            # t for that s; where t leaves [0, 1], clamp it and recompute s.
-            t = (b * s + f) / e
-            if t < 0.0:
-                s, t = min(max(-c / a, 0.0), 1.0), 0.0
-            elif t > 1.0:
-                s, t = min(max((b - c) / a, 0.0), 1.0), 1.0
-            if denom <= _ILL_CONDITIONED_SIN2 * a * e:
-                # Nearly parallel: rounding in the 2x2 solve can clamp to the wrong end, or
-                # land far along the flat valley of the distance. Its minimum over [0, 1]^2
-                # is at the lines' closest points (when inside) or on an edge, i.e. an end
-                # point of one segment against the other: keep the smallest of the candidates.
-                best = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s, t)
-                s_in, t_in = _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f, denom)
-                if 0.0 <= s_in <= 1.0 and 0.0 <= t_in <= 1.0:
-                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_in, t_in)
-                    if g < best:
-                        best, s, t = g, s_in, t_in
-                for end in (0.0, 1.0):
-                    t_end = min(max((f + end * b) / e, 0.0), 1.0)  # A's end against B
-                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, end, t_end)
-                    if g < best:
-                        best, s, t = g, end, t_end
-                    s_end = min(max((end * b - c) / a, 0.0), 1.0)  # B's end against A
-                    g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_end, end)
-                    if g < best:
-                        best, s, t = g, s_end, end
-        point_a[k, 0], point_a[k, 1], point_a[k, 2] = a0[k, 0] + s * d1x, a0[k, 1] + s * d1y, a0[k, 2] + s * d1z
-        point_b[k, 0], point_b[k, 1], point_b[k, 2] = b0[k, 0] + t * d2x, b0[k, 1] + t * d2y, b0[k, 2] + t * d2z
-        gx, gy, gz = point_a[k, 0] - point_b[k, 0], point_a[k, 1] - point_b[k, 1], point_a[k, 2] - point_b[k, 2]
-        distance[k] = np.sqrt(gx * gx + gy * gy + gz * gz) - ra[k] - rb[k]
+        distance[k] = capsule_pair(a0[k], a1[k], ra[k], b0[k], b1[k], rb[k], point_a[k], point_b[k])
 
 
 def _flat(x, shape: tuple[int, ...], width: int) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Compiled kinematics of a serial arm from pinocchio's joint placements (the packed fast path).
+"""Compiled kinematics of a serial arm from pinocchio's joint placements.
 
 Equal to pinocchio (to rounding) for the joint types the supported robots use: revolute about a
 joint axis (``JointModelRX``/``RY``/``RZ``, angle ``q``) and the continuous revolute about z
@@ -6,7 +6,7 @@ joint axis (``JointModelRX``/``RY``/``RZ``, angle ``q``) and the continuous revo
 placement[j] * M_joint(q)``; the world Jacobian column of joint ``i`` at a point ``p`` is
 ``a_i x (p - o_i)`` (translation) and ``a_i`` (rotation), ``a_i`` the joint's axis in the world.
 ``integrate`` is ``pin.integrate``; ``log3`` is pinocchio's ``log3`` (same branches).
-Tests compare each against pinocchio (``tests/test_arm_packed.py``).
+Tests compare each against pinocchio (``tests/test_arm_kinematics.py``).
 """
 
 from __future__ import annotations

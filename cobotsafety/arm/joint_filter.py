@@ -1,0 +1,131 @@
+"""The anticipative filter in joint space: the joint velocity closest to the user's command that
+keeps every limitation, the robot's speed limits, and (when it can) its acceleration and jerk.
+
+Decision variable: the joint velocity ``qdot`` (nv,), written ``qdot = q0 + B z``: ``q0`` is the
+command's own joint-space solution (``task.task_mapping``: ``M v + c``) and ``B = [M | Z / eps]``
+maps ``z = (u - v, eps w)`` to joint velocities, ``u`` the hand's command and ``w`` the body's
+motion in the null space of the hand (``task.null_basis``). Minimising ``||z||`` is the least
+squares in the task space with a small regularisation of the body's motion::
+
+    min ||u - v||^2 + eps^2 ||w||^2
+
+so when nothing binds ``qdot = M v + c`` exactly, and when a limitation on the body binds, the
+arm moves its body (cheap: ``eps`` [m/rad] weighs 1 rad/s of posture change as ``eps`` m/s of
+hand deviation) before it slides the hand. ``B = I`` and ``q0`` a joint velocity give the
+plain projection of that velocity (paper 2's field, sliding off the limitations).
+
+Every row is a half-space ``a . qdot >= b`` (``tests/test_arm_joint_filter.py`` holds the
+result equal to quadprog's on random problems), in three groups by priority:
+
+* ``LIMITATION``: the limitations' braking bounds (``step_kernel.limitation_bounds``) and the
+  end-effector speed cap (a norm: ``||J qdot|| <= cap``, met by adding its tangent plane at the
+  solution as a row, at most ``SPEED_CUTS`` times);
+* ``VELOCITY``: each joint's speed limit, hard;
+* ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
+  joint velocities the next step may take from the previous one: soft.
+
+Priorities, from the strictest: every row hard but the motion rows, which give way by least
+squares only as much as the hard rows need (``least_distance.relax_kernel``): safety wins over
+smoothness and each such step is counted; when the hard rows contradict each other, the
+limitations' retreats (bounds > 0: a human closing in, a limit already inside its buffer) give
+way too, each down to "approach nothing" at most; when that fails, every limitation is held at
+"approach nothing"; when that fails too, the arm is stopped (zero joint velocity).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from cobotsafety.least_distance import RELAX_DONE, RELAXATION_COMMAND_WEIGHT, relax_kernel
+
+LIMITATION, VELOCITY, MOTION = 0, 1, 2
+#: How the filter ended: every row as asked; retreats relaxed; approaching nothing; stopped.
+LEVEL_EXACT, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3
+#: The most tangent planes the end-effector's speed cap may add.
+SPEED_CUTS = 3
+#: A row counts as binding when the command is within this of its bound (same unit as ``b``).
+BINDING_TOLERANCE = 1e-9
+
+
+@numba.njit(cache=True)
+def _solve(q0, B, N, b, group, count, retreat_floor):  # pragma: no cover - compiled
+    """One solve of the rows ``[:count]`` at the priorities above; ``(qdot, violation (count,),
+    level)``. ``retreat_floor``: lowest level tried (the cut loop keeps a level once reached)."""
+    nv, nz = B.shape
+    G = np.zeros((count, nz))
+    h = np.empty(count)
+    base = np.empty(count)  # a . q0
+    for i in range(count):
+        s = 0.0
+        for k in range(nv):
+            s += N[i, k] * q0[k]
+        base[i] = s
+        for j in range(nz):
+            t = 0.0
+            for k in range(nv):
+                t += N[i, k] * B[k, j]
+            G[i, j] = t
+        h[i] = b[i] - s
+    soft = np.zeros(count, dtype=np.bool_)
+    floors = np.full(count, -np.inf)
+    for i in range(count):
+        soft[i] = group[i] == MOTION
+    zero = np.zeros(nz)
+    if retreat_floor <= LEVEL_EXACT:
+        z, violation, status, _, _ = relax_kernel(zero, G, h, soft, floors, RELAXATION_COMMAND_WEIGHT)
+        if status == RELAX_DONE:
+            return q0 + B @ z, violation, LEVEL_EXACT
+    if retreat_floor <= LEVEL_RELAXED:
+        relaxable = soft.copy()
+        any_retreat = False
+        for i in range(count):
+            if group[i] == LIMITATION and b[i] > 0.0:
+                relaxable[i] = True
+                floors[i] = -base[i]  # a . qdot >= 0: approach nothing
+                any_retreat = True
+        if any_retreat:
+            z, violation, status, _, _ = relax_kernel(zero, G, h, relaxable, floors, RELAXATION_COMMAND_WEIGHT)
+            if status == RELAX_DONE:
+                return q0 + B @ z, violation, LEVEL_RELAXED
+        for i in range(count):
+            floors[i] = -np.inf
+    lowered = h.copy()
+    for i in range(count):
+        if group[i] == LIMITATION and b[i] > 0.0:
+            lowered[i] = -base[i]
+    z, violation, status, _, _ = relax_kernel(zero, G, lowered, soft, floors, RELAXATION_COMMAND_WEIGHT)
+    if status == RELAX_DONE:
+        for i in range(count):
+            violation[i] += h[i] - lowered[i]
+        return q0 + B @ z, violation, LEVEL_APPROACH_NOTHING
+    return np.zeros(nv), np.zeros(count), LEVEL_STOPPED
+
+
+@numba.njit(cache=True)
+def filter_rows(q0, B, N, b, group, count, J, speed_cap):  # pragma: no cover - compiled
+    """The filtered joint velocity for the rows ``N[:count] @ qdot >= b[:count]`` (groups
+    ``group``), ``qdot = q0 + B z``, and the end-effector speed ``||J qdot|| <= speed_cap``.
+
+    ``N``, ``b``, ``group`` have room for ``SPEED_CUTS`` more rows after ``count``. Returns
+    ``(qdot (nv,), violation (rows,), level, rows)``: how much each row's bound was given up
+    (motion rows: smoothness given up for safety; limitation rows: retreats relaxed), the
+    level reached (``LEVEL_*``) and the rows used (``count`` plus the speed cuts)."""
+    qdot, violation, level = _solve(q0, B, N, b, group, count, LEVEL_EXACT)
+    rows = count
+    for _ in range(SPEED_CUTS):
+        if level == LEVEL_STOPPED:
+            break
+        ee = J @ qdot
+        speed = np.sqrt(np.sum(ee * ee))
+        if speed <= speed_cap * (1.0 + 1e-9):
+            break
+        # The cap's tangent plane at the solution: e . (J qdot) <= cap, e = J qdot / |J qdot|.
+        e = ee / speed
+        for k in range(N.shape[1]):
+            N[rows, k] = -(e[0] * J[0, k] + e[1] * J[1, k] + e[2] * J[2, k])
+        b[rows] = -speed_cap
+        group[rows] = LIMITATION
+        rows += 1
+        qdot, violation, level = _solve(q0, B, N, b, group, rows, level)
+    return qdot, violation, level, rows

@@ -1,0 +1,80 @@
+"""A half-space zone (a wall): everything on the side ``normal`` points to from ``point`` is
+forbidden.
+
+Rows (metres): ``-max(s0, s1) - r`` for each robot capsule (``s`` the signed heights of its end
+points over the plane), gradient ``-n . J_p`` at the deeper end point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from cobotsafety.arm.kinematics import point_jacobian_row
+
+KIND = 4
+ANGULAR = False
+
+
+@dataclass(frozen=True)
+class HalfSpaceZone:
+    """The forbidden side of the plane through ``point`` [m] with outward ``normal`` (base frame)."""
+
+    name: str
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    skip_capsules: int = 1
+
+
+def pack(zone: HalfSpaceZone, robot) -> tuple[np.ndarray, int]:
+    real = np.zeros(12)
+    n = np.asarray(zone.normal, dtype=float)
+    real[0:3], real[3:6] = zone.point, n / np.linalg.norm(n)
+    return real, zone.skip_capsules
+
+
+def row_name(zone: HalfSpaceZone, robot, a: int, b: int) -> str:
+    return f"{zone.name} ({robot.capsules[a].name})"
+
+
+@numba.njit(cache=True)
+def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
+    return max(n_caps - skip, 0)
+
+
+@numba.njit(cache=True)
+def _heights(real, p0, p1, c):  # pragma: no cover - compiled
+    s0 = (p0[c, 0] - real[0]) * real[3] + (p0[c, 1] - real[1]) * real[4] + (p0[c, 2] - real[2]) * real[5]
+    s1 = (p1[c, 0] - real[0]) * real[3] + (p1[c, 1] - real[1]) * real[4] + (p1[c, 2] - real[2]) * real[5]
+    return s0, s1
+
+
+@numba.njit(cache=True)
+def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    for i in range(p0.shape[0] - skip):
+        s0, s1 = _heights(real, p0, p1, skip + i)
+        out[i] = -max(s0, s1) - radius[skip + i]
+
+
+@numba.njit(cache=True)
+def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    dist, A, rate, angular, tag = out
+    away = -real[3:6]
+    for i in range(p0.shape[0] - skip):
+        c = skip + i
+        s0, s1 = _heights(real, p0, p1, c)
+        value = -max(s0, s1) - radius[c]
+        before[i] = value
+        if value >= activation_m:
+            continue
+        deepest = p0[c] if s0 >= s1 else p1[c]
+        dist[m] = value
+        point_jacobian_row(away, deepest, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+        rate[m], angular[m] = 0.0, False
+        tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
+        m += 1
+    return m

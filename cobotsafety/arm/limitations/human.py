@@ -1,0 +1,150 @@
+"""The human as a moving zone: every robot capsule keeps ``critical_m`` from every human capsule.
+
+Rows (metres) for every (robot capsule from ``skip_capsules`` on, human capsule) pair whose
+capsule distance is below ``activation_m``: ``d = distance - critical_m``, gradient ``u . J_p``
+at the robot capsule's closest axis point (``u`` the unit vector from the human's closest
+point), and the rate at which the human alone changes ``d``: ``-u . v_h``, ``v_h`` the human's
+velocity at its closest point (interpolated between its capsule's end-point velocities). The
+human's capsules reach the compiled step as one flat buffer (``human_buffer``), extrapolated
+there to the step's time with their velocities.
+
+Defaults: ``critical_m`` = 0.25 m (paper 2's d_cr is not given numerically: a quarter metre
+between capsule surfaces) and ``activation_m`` = 0.60 m (d_cr + d_o with d_o = 0.35 m).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from cobotsafety.arm.kinematics import point_jacobian_row
+from cobotsafety.geometry.capsule import capsule_pair
+
+KIND = 6
+ANGULAR = False
+DEFAULT_CRITICAL_M = 0.25
+DEFAULT_ACTIVATION_M = 0.60
+#: Floats per human capsule in the flat buffer: p0 (3), p1 (3), radius, v0 (3), v1 (3).
+HUMAN_FLOATS = 13
+
+
+@dataclass(frozen=True)
+class HumanLimitation:
+    """Keeps ``critical_m`` [m] between robot and human capsules; rows below ``activation_m`` [m]."""
+
+    critical_m: float = DEFAULT_CRITICAL_M
+    activation_m: float = DEFAULT_ACTIVATION_M
+    skip_capsules: int = 1
+    name: str = "human"
+
+
+def pack(limitation: HumanLimitation, robot) -> tuple[np.ndarray, int]:
+    real = np.zeros(12)
+    real[0], real[1] = limitation.critical_m, limitation.activation_m
+    return real, limitation.skip_capsules
+
+
+def row_name(limitation: HumanLimitation, robot, a: int, b: int, human_names: tuple[str, ...] = ()) -> str:
+    part = human_names[b] if b < len(human_names) else f"capsule {b}"
+    return f"human {part} ({robot.capsules[a].name})"
+
+
+def human_buffer(p0_m, p1_m, radius_m, v0_m_s, v1_m_s) -> np.ndarray:
+    """The flat buffer (13 h,) the compiled step reads: end points (h, 3) [m], radii (h,) [m]
+    and end-point velocities (h, 3) [m/s], in that order."""
+    return np.ascontiguousarray(np.concatenate([np.asarray(a, dtype=float).ravel()
+                                                for a in (p0_m, p1_m, radius_m, v0_m_s, v1_m_s)]))
+
+
+@numba.njit(cache=True)
+def unpack_human(human_f, ahead_s):  # pragma: no cover - compiled
+    """``(p0 (h, 3), p1 (h, 3), radius (h,), v0 (h, 3), v1 (h, 3))`` from the flat buffer, the
+    end points moved ``ahead_s`` [s] along their velocities (new arrays)."""
+    h = human_f.shape[0] // HUMAN_FLOATS
+    v0 = human_f[7 * h:10 * h].reshape((h, 3))
+    v1 = human_f[10 * h:13 * h].reshape((h, 3))
+    p0 = human_f[0:3 * h].reshape((h, 3)) + ahead_s * v0
+    p1 = human_f[3 * h:6 * h].reshape((h, 3)) + ahead_s * v1
+    return p0, p1, human_f[6 * h:7 * h], v0, v1
+
+
+@numba.njit(cache=True)
+def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
+    return max(n_caps - skip, 0) * n_human
+
+
+@numba.njit(cache=True)
+def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
+    """``distance - critical`` of every pair, robot-major, into ``out``."""
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    hp0, hp1, hr, hv0, hv1 = human
+    pa, pb = np.empty(3), np.empty(3)
+    k = hr.shape[0]
+    for i in range(p0.shape[0] - skip):
+        c = skip + i
+        for h in range(k):
+            out[i * k + h] = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb) - real[0]
+
+
+@numba.njit(cache=True)
+def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
+    """The pairs within the limitation's own activation distance (``real[1]``)."""
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    hp0, hp1, hr, hv0, hv1 = human
+    dist, A, rate, angular, tag = out
+    pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
+    k = hr.shape[0]
+    for i in range(p0.shape[0] - skip):
+        c = skip + i
+        for h in range(k):
+            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            before[i * k + h] = d - real[0]
+            if d >= real[1]:
+                continue
+            gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
+            norm = np.sqrt(gx * gx + gy * gy + gz * gz)
+            if norm > 1e-9:
+                u[0], u[1], u[2] = gx / norm, gy / norm, gz / norm
+            else:
+                u[0], u[1], u[2] = 0.0, 0.0, 1.0
+            sx, sy, sz = hp1[h, 0] - hp0[h, 0], hp1[h, 1] - hp0[h, 1], hp1[h, 2] - hp0[h, 2]
+            length2 = sx * sx + sy * sy + sz * sz
+            t = 0.0
+            if length2 > 0.0:
+                t = ((pb[0] - hp0[h, 0]) * sx + (pb[1] - hp0[h, 1]) * sy + (pb[2] - hp0[h, 2]) * sz) / length2
+                t = min(max(t, 0.0), 1.0)
+            closing = 0.0
+            for r in range(3):
+                closing += u[r] * (hv0[h, r] + t * (hv1[h, r] - hv0[h, r]))
+            dist[m] = d - real[0]
+            point_jacobian_row(u, pa, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            rate[m], angular[m] = -closing, False
+            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, h
+            m += 1
+    return m
+
+
+@numba.njit(cache=True)
+def closest_pair(skip, kin, human, out_robot, out_human):  # pragma: no cover - compiled
+    """The smallest robot-human capsule distance [m] (inf without a human) and its witness
+    points on the two capsules' surfaces into ``out_robot``, ``out_human`` (3,) (NaN without)."""
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    hp0, hp1, hr, hv0, hv1 = human
+    pa, pb = np.empty(3), np.empty(3)
+    best = np.inf
+    out_robot[:] = np.nan
+    out_human[:] = np.nan
+    for c in range(skip, p0.shape[0]):
+        for h in range(hr.shape[0]):
+            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            if d < best:
+                best = d
+                gx, gy, gz = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+                norm = np.sqrt(gx * gx + gy * gy + gz * gz)
+                ux, uy, uz = (gx / norm, gy / norm, gz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
+                out_robot[0], out_robot[1], out_robot[2] = pa[0] + ux * radius[c], pa[1] + uy * radius[c], \
+                    pa[2] + uz * radius[c]
+                out_human[0], out_human[1], out_human[2] = pb[0] - ux * hr[h], pb[1] - uy * hr[h], pb[2] - uz * hr[h]
+    return best

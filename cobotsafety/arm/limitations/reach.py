@@ -1,0 +1,77 @@
+"""Reach limits: the end-effector stays between ``inner_m`` and ``outer_m`` from a shoulder point.
+
+Rows (metres of the end-effector): ``r - inner`` and ``outer - r`` with ``r`` its distance from
+the shoulder; gradient ``+-u . J_ee`` (``u`` the unit vector from the shoulder).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+KIND = 1
+ANGULAR = False
+
+
+@dataclass(frozen=True)
+class ReachLimits:
+    """Inner and extended reach [m] around ``shoulder`` (base frame) [m]."""
+
+    shoulder: tuple[float, float, float]
+    inner_m: float
+    outer_m: float
+    name: str = "reach"
+
+
+def pack(limitation: ReachLimits, robot) -> tuple[np.ndarray, int]:
+    real = np.zeros(12)
+    real[0:3], real[3], real[4] = limitation.shoulder, limitation.inner_m, limitation.outer_m
+    return real, 0
+
+
+def row_name(limitation: ReachLimits, robot, a: int, b: int) -> str:
+    return f"{limitation.name} {('inner', 'extended')[a]}"
+
+
+@numba.njit(cache=True)
+def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
+    return 2
+
+
+@numba.njit(cache=True)
+def _radius(real, p_ee):  # pragma: no cover - compiled
+    ox, oy, oz = p_ee[0] - real[0], p_ee[1] - real[1], p_ee[2] - real[2]
+    return np.sqrt(ox * ox + oy * oy + oz * oz), ox, oy, oz
+
+
+@numba.njit(cache=True)
+def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    r, _, _, _ = _radius(real, p_ee)
+    out[0], out[1] = r - real[3], real[4] - r
+
+
+@numba.njit(cache=True)
+def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    dist, A, rate, angular, tag = out
+    r, ox, oy, oz = _radius(real, p_ee)
+    if r > 1e-12:
+        ux, uy, uz = ox / r, oy / r, oz / r
+    else:
+        ux, uy, uz = 0.0, 0.0, 1.0
+    for side in range(2):
+        value = r - real[3] if side == 0 else real[4] - r
+        before[side] = value
+        if value >= activation_m:
+            continue
+        sign = 1.0 if side == 0 else -1.0
+        dist[m] = value
+        for col in range(A.shape[1]):
+            A[m, col] = sign * (ux * J6[0, col] + uy * J6[1, col] + uz * J6[2, col])
+        rate[m], angular[m] = 0.0, False
+        tag[m, 0], tag[m, 1], tag[m, 2] = con, side, 0
+        m += 1
+    return m

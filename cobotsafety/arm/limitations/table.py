@@ -1,0 +1,68 @@
+"""The table (or floor): no robot capsule goes below the plane ``z = height_m``.
+
+Rows (metres): for each capsule from ``skip_capsules`` on, its lowest end's height above the
+plane minus its radius; gradient the z row of that end point's Jacobian.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from cobotsafety.arm.kinematics import point_jacobian_row
+
+KIND = 2
+ANGULAR = False
+
+
+@dataclass(frozen=True)
+class TablePlane:
+    """The plane ``z = height_m`` [m]; the first ``skip_capsules`` sit on the base and are not checked."""
+
+    height_m: float = 0.0
+    name: str = "table"
+    skip_capsules: int = 2
+
+
+def pack(limitation: TablePlane, robot) -> tuple[np.ndarray, int]:
+    real = np.zeros(12)
+    real[0] = limitation.height_m
+    return real, limitation.skip_capsules
+
+
+def row_name(limitation: TablePlane, robot, a: int, b: int) -> str:
+    return f"{limitation.name} ({robot.capsules[a].name})"
+
+
+@numba.njit(cache=True)
+def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
+    return max(n_caps - skip, 0)
+
+
+@numba.njit(cache=True)
+def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    for i in range(p0.shape[0] - skip):
+        c = skip + i
+        out[i] = min(p0[c, 2], p1[c, 2]) - radius[c] - real[0]
+
+
+@numba.njit(cache=True)
+def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    dist, A, rate, angular, tag = out
+    up = np.array([0.0, 0.0, 1.0])
+    for i in range(p0.shape[0] - skip):
+        c = skip + i
+        low = p0[c] if p0[c, 2] <= p1[c, 2] else p1[c]
+        value = low[2] - radius[c] - real[0]
+        before[i] = value
+        if value < activation_m:
+            dist[m] = value
+            point_jacobian_row(up, low, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            rate[m], angular[m] = 0.0, False
+            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
+            m += 1
+    return m
