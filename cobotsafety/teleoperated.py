@@ -46,6 +46,21 @@ class StepReport:
     contradictions: int = 0
     """Steps of this episode (since ``reset``) whose limitations contradicted each other (the
     arm then violated the required retreats as little as it could); logged once per episode."""
+    p_robot_closest_m: np.ndarray | None = None
+    """Shape (3,): the robot's point of the minimum human distance, on its capsule's surface [m]
+    (None without a human)."""
+    p_human_closest_m: np.ndarray | None = None
+    """Shape (3,): the human's point of the minimum distance, on its capsule's surface [m]."""
+    motion_limited: tuple[str, ...] = ()
+    """The joints (``"<joint> acceleration"``) or the end-effector (``"end-effector
+    acceleration"``) whose acceleration or jerk limit shaped the command this step."""
+    safety_over_smoothness: bool = False
+    """This step exceeded an acceleration or jerk limit because a limitation needed it."""
+    safety_over_smoothness_steps: int = 0
+    """Such steps in this episode (since ``reset``)."""
+    human_status: str = ""
+    """What the controller knows of the human: "" (fresh or none), or why it is being careful
+    ("human model 0.12 s old: grown by 0.14 m", "human model 0.6 s old: stopped")."""
 
 
 @runtime_checkable

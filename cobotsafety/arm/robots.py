@@ -1,8 +1,8 @@
 """Supported robots by name: one loader, one end-effector frame, one home pose each.
 
 ``load_robot(name)`` returns a ``pinocchio.RobotWrapper``-like triple (model, collision model,
-spec). Gripper joints are locked (kinematic arm only). ``planar`` is paper 1's RR arm built
-as a pinocchio model, so it runs through the same path as the real arms. ``iiwa`` (paper 2's
+spec). Gripper joints are locked (kinematic arm only). Paper 1's planar RR arm is
+``cobotsafety.planar``, not a model here. ``iiwa`` (paper 2's
 robot family: KUKA LBR iiwa 14 R820) comes from PyPI ``rtb-data``, whose copy of ROS-Industrial's
 ``kuka_lbr_iiwa_support`` description (Apache-2.0) names its meshes ``package://`` paths that do
 not match its folders: ``urdf_path(name)`` gives a URDF with absolute mesh paths for pinocchio
@@ -27,8 +27,8 @@ class RobotSpec:
     """How to load one robot and use it as a teleoperated arm."""
 
     name: str
-    loader: str | None
-    """example-robot-data name, ``"rtbdata:<urdf path inside rtbdata>"``, or None (built here)."""
+    loader: str
+    """example-robot-data name, or ``"rtbdata:<urdf path inside rtbdata>"``."""
     ee_frame: str
     home_q: tuple[float, ...]
     """Home configuration in the reduced model's ``nq`` coordinates."""
@@ -68,7 +68,6 @@ ROBOTS: dict[str, RobotSpec] = {
     # Paper 2's pose family: elbow up, tool pointing down at (0.35, 0, 0.70) m in front of the base.
     "iiwa": RobotSpec("iiwa", f"{RTBDATA_PREFIX}{IIWA_URDF}", "tool0", (0.0, -0.1122, 0.0, -1.5612, 0.0, 1.6926, 0.0),
                       arm_joints=("joint_a2", "joint_a4", "joint_a6")),
-    "planar": RobotSpec("planar", None, "ee", (1.7686, 2.4554)),
 }
 
 DEFAULT_ROBOT = "panda"
@@ -112,8 +111,6 @@ def _rtbdata_urdf(relative: str) -> Path:
 def urdf_path(name: str) -> Path:
     """The URDF file of robot ``name`` with loadable mesh paths (for ``ViserUrdf``)."""
     spec = robot_spec(name)
-    if spec.loader is None:
-        raise UnknownRobotError(f"robot {name!r} is built in code and has no URDF")
     if spec.loader.startswith(RTBDATA_PREFIX):
         return _rtbdata_urdf(spec.loader[len(RTBDATA_PREFIX):])
     import example_robot_data
@@ -121,34 +118,12 @@ def urdf_path(name: str) -> Path:
     return Path(example_robot_data.load(spec.loader).urdf)
 
 
-def _planar_model():
-    """Paper 1's RR arm (two 0.30 m links, revolute about z) as a pinocchio model."""
-    import pinocchio as pin
-
-    from cobotsafety.planar.rr_arm import PlanarArm
-
-    arm = PlanarArm()
-    model = pin.Model()
-    j1 = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "joint1")
-    j2 = model.addJoint(j1, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([arm.link_1_m, 0, 0])), "joint2")
-    model.addFrame(pin.Frame("ee", j2, 0, pin.SE3(np.eye(3), np.array([arm.link_2_m, 0, 0])), pin.FrameType.OP_FRAME))
-    model.lowerPositionLimit = np.array([arm.theta_1_min_rad, arm.theta_2_min_rad])
-    model.upperPositionLimit = np.array([arm.theta_1_max_rad, arm.theta_2_max_rad])
-    model.velocityLimit = np.array([2.0, 2.0])
-    inertia = pin.Inertia.FromCylinder(1.0, 0.03, arm.link_1_m)
-    for j in (j1, j2):
-        model.appendBodyToJoint(j, inertia, pin.SE3.Identity())
-    return model, pin.GeometryModel()
-
-
 def load_robot(name: str = DEFAULT_ROBOT):
     """Return ``(model, collision_model, spec)`` with gripper joints locked and overrides applied."""
     import pinocchio as pin
 
     spec = robot_spec(name)
-    if spec.loader is None:
-        model, collision = _planar_model()
-    elif spec.loader.startswith(RTBDATA_PREFIX):
+    if spec.loader.startswith(RTBDATA_PREFIX):
         path = str(_rtbdata_urdf(spec.loader[len(RTBDATA_PREFIX):]))
         model = pin.buildModelFromUrdf(path)
         collision = pin.buildGeomFromUrdf(model, path, pin.GeometryType.COLLISION)

@@ -1,0 +1,578 @@
+"""One control step of a 3D arm, compiled: kinematics, limitations, filter, integration, check.
+
+``arm_step`` is the only implementation of the step (``controller.ArmController`` calls it once
+per period; with ``NUMBA_DISABLE_JIT=1`` this source runs as written). Its arguments are flat
+buffers grouped by role:
+
+* ``state_f``: ``q`` (nq), the previous step's joint velocity (nv) and acceleration (nv), the
+  end-effector's previous velocity (3) and acceleration (3). Updated in place.
+* ``command_f``: the desired end-effector velocity ``v`` (3) [m/s], ``dt`` [s], the reference
+  orientation ``R_ref`` (9, row-major), how far ahead of its frame the human is extrapolated
+  [s], the speed cap [m/s]; ``command_i``: strategy, orientation hold, SSM, forced stop.
+* ``robot_i``, ``robot_f``: the robot (``robot_model.robot_buffers``).
+* ``scene_i`` (n, 2): each limitation's kind and skipped capsules; ``scene_f`` (n, 12): its
+  numbers (``limitations.registry.pack_scene``).
+* ``human_f``: the human capsules and their velocities (``limitations.human.human_buffer``).
+* ``settings_f``: ``FilterSettings.vector()``.
+* ``out_f``, ``out_i``: what the step did (``output_layout`` says where).
+
+The step:
+
+1. kinematics at ``q`` (``kinematics.py``), the task's joint velocity ``q0 = M v + c`` and the
+   null basis (``task.py``);
+2. every limitation's rows ``(d, a, rate)`` (``limitations/``) and their bounds
+   (``limitation_bounds``): the approach speed from which the arm can still brake before the
+   limitation (``braking.braking_speed``), the human's own approach added, SSM's speed limit;
+   the joints' speed limits; the motion box of each joint (acceleration and jerk limits from the
+   previous step) and of the end-effector;
+3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``); ``stop`` commands zero as
+   soon as ``q0`` would break a bound (the arm brakes within its limits); ``reactive`` is paper
+   2's potential field at the human's closest point, projected onto the other limitations (it
+   slides off them as the anticipative filter does); ``off`` keeps only the robot's own speed,
+   acceleration and jerk limits;
+4. integration (``pin.integrate``'s arithmetic) and the safety net: a step that would cross a
+   limitation clear before it (the rows are first-order on curved limitations), or deepen one
+   already violated, is scaled down by bisection; only limitations the step can reach are
+   re-checked (every distance is 1-Lipschitz in the arm's points, which move at most
+   ``lever * sum |dq|``);
+5. the new kinematics and the human's minimum distance with its witness points.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from cobotsafety.arm.braking import braking_speed
+from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_STOPPED,
+                                          LIMITATION, MOTION, SPEED_CUTS, VELOCITY, filter_rows)
+from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
+from cobotsafety.arm.limitations import human as human_kind
+from cobotsafety.arm.limitations import joint_range
+from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
+from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
+from cobotsafety.geometry.capsule import capsule_pair
+
+ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
+STRATEGIES = ("anticipative", "stop", "reactive", "off")
+#: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
+#: row, motion limited, smoothness given up, protective stop; then the binding rows' codes,
+#: then the motion-limited rows' codes.
+(I_STATUS, I_LEVEL, I_STOPPED, I_BINDING, I_RELAXED, I_WORST, I_MOTION_LIMITED, I_SMOOTHNESS, I_PROTECTIVE,
+ I_MOTION_COUNT) = range(10)
+OUT_I_HEADER = 16
+STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
+#: Row codes: ``(owner + 4) << 20 | a << 10 | b``; owner >= 0 a limitation (its index), else
+#: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
+OWNER_VELOCITY, OWNER_MOTION, OWNER_SPEED, OWNER_EE_MOTION = -1, -2, -3, -4
+CROSSING_TOLERANCE_M = 1e-9
+
+
+@numba.njit(cache=True)
+def row_code(owner, a, b):  # pragma: no cover - compiled
+    return ((owner + 4) << 20) | (a << 10) | b
+
+
+def decode_row(code: int) -> tuple[int, int, int]:
+    """``(owner, a, b)`` of a row code."""
+    return (code >> 20) - 4, (code >> 10) & 1023, code & 1023
+
+
+@numba.njit(cache=True)
+def output_layout(nq, nv, n_caps):  # pragma: no cover - compiled
+    """Offsets in ``out_f``: q_next, qdot, p_ee, R_ee, J6, cap_p0, cap_p1, v_commanded,
+    v_executed, min_distance, p_robot, p_human, net_scale, worst_violation, motion_violation,
+    and the total size."""
+    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1)
+    offsets = np.zeros(len(sizes) + 1, dtype=np.int64)
+    for i in range(len(sizes)):
+        offsets[i + 1] = offsets[i] + sizes[i]
+    return offsets
+
+
+@numba.njit(cache=True)
+def unpack_robot(robot_i, robot_f):  # pragma: no cover - compiled
+    """The robot's arrays as views of its buffers (``robot_model.robot_buffers``)."""
+    nj, nq, nv, ee_joint, c, L = robot_i[0], robot_i[1], robot_i[2], robot_i[3], robot_i[4], robot_i[5]
+    o = 6
+    jtype = robot_i[o:o + nj]
+    parent = robot_i[o + nj:o + 2 * nj]
+    idx_q = robot_i[o + 2 * nj:o + 3 * nj]
+    idx_v = robot_i[o + 3 * nj:o + 4 * nj]
+    o += 4 * nj
+    support = robot_i[o:o + nj * nj].reshape((nj, nj))
+    o += nj * nj
+    cap_joint = robot_i[o:o + c]
+    limited = robot_i[o + c:o + c + 2 * L].reshape((L, 2))
+    axes = robot_f[0:3 * nj].reshape((nj, 3))
+    o = 3 * nj
+    placement_R = robot_f[o:o + 9 * nj].reshape((nj, 3, 3))
+    o += 9 * nj
+    placement_t = robot_f[o:o + 3 * nj].reshape((nj, 3))
+    o += 3 * nj
+    ee_R = robot_f[o:o + 9].reshape((3, 3))
+    ee_t = robot_f[o + 9:o + 12]
+    o += 12
+    cap_p0l = robot_f[o:o + 3 * c].reshape((c, 3))
+    cap_p1l = robot_f[o + 3 * c:o + 6 * c].reshape((c, 3))
+    radius = robot_f[o + 6 * c:o + 7 * c]
+    o += 7 * c
+    lower = robot_f[o:o + nq]
+    upper = robot_f[o + nq:o + 2 * nq]
+    o += 2 * nq
+    vel, acc, jerk = robot_f[o:o + nv], robot_f[o + nv:o + 2 * nv], robot_f[o + 2 * nv:o + 3 * nv]
+    o += 3 * nv
+    ee_limits = robot_f[o:o + 3]
+    lever = robot_f[o + 3]
+    return (nq, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, limited, axes, placement_R,
+            placement_t, ee_R, ee_t, cap_p0l, cap_p1l, radius, lower, upper, vel, acc, jerk, ee_limits, lever)
+
+
+@numba.njit(cache=True)
+def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_joint, ee_R, ee_t,
+               cap_joint, cap_p0l, cap_p1l, nv):  # pragma: no cover - compiled
+    """``(oR, op, p_ee, R_ee, J6 (6, nv), p0, p1)`` at ``q``: joint placements, the
+    end-effector's pose and LOCAL_WORLD_ALIGNED Jacobian, the capsules' end points."""
+    nj = jtype.shape[0]
+    oR, op = np.empty((nj, 3, 3)), np.empty((nj, 3))
+    forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op)
+    R_ee = oR[ee_joint] @ ee_R
+    p_ee = op[ee_joint] + oR[ee_joint] @ ee_t
+    J6 = np.empty((6, nv))
+    frame_jacobian(p_ee, ee_joint, oR, op, axes, idx_v, support, J6)
+    c = cap_joint.shape[0]
+    p0, p1 = np.empty((c, 3)), np.empty((c, 3))
+    for k in range(c):
+        j = cap_joint[k]
+        p0[k] = op[j] + oR[j] @ cap_p0l[k]
+        p1[k] = op[j] + oR[j] @ cap_p1l[k]
+    return oR, op, p_ee, R_ee, J6, p0, p1
+
+
+@numba.njit(cache=True)
+def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover - compiled
+    """The closest robot-human pair: ``(distance [m], robot capsule, robot axis point, human
+    axis point)`` (-1 and NaN points without a human)."""
+    best, capsule = np.inf, -1
+    pr, ph = np.full(3, np.nan), np.full(3, np.nan)
+    pa, pb = np.empty(3), np.empty(3)
+    for c in range(skip, p0.shape[0]):
+        for h in range(hr.shape[0]):
+            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            if d < best:
+                best, capsule = d, c
+                pr[:] = pa
+                ph[:] = pb
+    return best, capsule, pr, ph
+
+
+@numba.njit(cache=True)
+def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op, axes, idx_v, support,
+                   critical_m, influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
+    """Paper 2's potential field (eqs. 16-21, errata 5-6): ``(qdot (nv,), stopped)``.
+
+    ``qdot = DLS(J, v_att) + DLS(J_cp, f s)`` with ``f = k_rep (d_o / (d - d_cr) - 1)``
+    (eq. 18) within ``d_cr + d_o`` of the human, ``s`` the unit vector from the human's closest
+    point to the robot's, ``J_cp`` the Jacobian of the robot's closest point; at ``d <= d_cr``
+    the collision is unavoidable: stop."""
+    nv = J.shape[1]
+    if np.isfinite(d_min) and d_min <= critical_m:
+        return np.zeros(nv), True
+    qdot = damped_least_squares(J, v_att, damping)
+    if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m:
+        return qdot, False
+    f = min(k_rep_m_s * (influence_m / (d_min - critical_m) - 1.0), max_repulsion_m_s)
+    if f <= 0.0:
+        return qdot, False
+    gap = p_robot - p_human
+    s = gap / max(np.sqrt(np.sum(gap * gap)), 1e-9)
+    J_cp = np.empty((3, nv))
+    e = np.zeros(3)
+    for r in range(3):
+        e[:] = 0.0
+        e[r] = 1.0
+        point_jacobian_row(e, p_robot, cap_joint[capsule], oR, op, axes, idx_v, support, J_cp[r])
+    return qdot + damped_least_squares(J_cp, f * s, damping), False
+
+
+@numba.njit(cache=True)
+def limitation_bounds(dist, A, rate, angular, separation, count, q0, dt_s, acc, jerk, vel, ee_acc, ee_jerk,
+                      brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm,
+                      ssm_params, bounds, keep):  # pragma: no cover - compiled
+    """Each row's bound ``b`` of ``a . qdot >= b`` into ``bounds``; ``keep`` False for rows no
+    velocity within the joints' limits can break.
+
+    Outside the buffer: approach no faster than the arm can brake before the limitation
+    (``braking_speed`` at what the joints can give along the row, ``brake_share`` of their
+    limits, at most the end-effector's for metric rows), and no more than the gap in one step;
+    paper 1's damped zone when a width is set. Inside it: drift out at ``recovery_gain`` times
+    the intrusion (never deeper). A human's own approach (``rate`` < 0) is added; with SSM the
+    arm's own approach to a human (rows with a finite ``separation`` [m], the capsules'
+    distance) is also at most ISO/TS 15066's speed for that separation. A retreat never asks
+    for more than the speed cap."""
+    nv = A.shape[1]
+    for i in range(count):
+        decel, jerk_n, reach = 0.0, 0.0, 0.0
+        for j in range(nv):
+            w = abs(A[i, j])
+            decel += w * acc[j]
+            jerk_n += w * jerk[j]
+            reach += w * vel[j]
+        decel *= brake_share
+        jerk_n *= brake_share
+        if not angular[i]:
+            decel = min(decel, brake_share * ee_acc)
+            jerk_n = min(jerk_n, brake_share * ee_jerk)
+        if decel <= 0.0 or jerk_n <= 0.0:
+            bounds[i] = -np.inf  # a row the joints cannot move: no half-space on the command
+            keep[i] = False
+            continue
+        gap = dist[i] - (buffer_rad if angular[i] else buffer_m)
+        if gap <= 0.0:
+            bound = -recovery_gain * gap
+        else:
+            bound = -braking_speed(gap, decel, jerk_n, dt_s)
+            width = width_rad if angular[i] else width_m
+            if width > 0.0 and gap < width:
+                desired = rate[i]
+                for j in range(nv):
+                    desired += A[i, j] * q0[j]
+                if desired < 0.0:
+                    bound = max(bound, gap / width * desired)
+        bound -= min(rate[i], 0.0)
+        if ssm and np.isfinite(separation[i]):
+            bound = max(bound, -ssm_approach_speed(separation[i], ssm_params))
+        bounds[i] = min(bound, speed_cap if not angular[i] else 0.5 * reach)
+        keep[i] = bounds[i] > -reach - 1e-12
+
+
+@numba.njit(cache=True)
+def ssm_approach_speed(separation_m, ssm_params):  # pragma: no cover - compiled
+    """ISO/TS 15066's largest robot speed toward the human [m/s] at ``separation_m`` [m]:
+    ``(S - v_h (T_r + T_s) - C - Z_d - Z_r) / (T_r + T_s / 2)``, at least 0."""
+    v_h, t_r, t_s, c, z_d, z_r = ssm_params[0], ssm_params[1], ssm_params[2], ssm_params[3], ssm_params[4], \
+        ssm_params[5]
+    return max((separation_m - v_h * (t_r + t_s) - c - z_d - z_r) / (t_r + 0.5 * t_s), 0.0)
+
+
+@numba.njit(cache=True)
+def ssm_protective_distance(robot_speed_m_s, ssm_params):  # pragma: no cover - compiled
+    """ISO/TS 15066's protective separation distance ``S_p`` [m] for a robot approaching at
+    ``robot_speed_m_s``: ``v_h (T_r + T_s) + v_r T_r + v_r T_s / 2 + C + Z_d + Z_r``."""
+    v_h, t_r, t_s, c, z_d, z_r = ssm_params[0], ssm_params[1], ssm_params[2], ssm_params[3], ssm_params[4], \
+        ssm_params[5]
+    return v_h * (t_r + t_s) + robot_speed_m_s * (t_r + 0.5 * t_s) + c + z_d + z_r
+
+
+@numba.njit(cache=True)
+def motion_box(qdot_prev, qddot_prev, acc, jerk, dt_s, lo, hi):  # pragma: no cover - compiled
+    """The joint velocities the next step may take [rad/s]: within ``acc dt`` of the previous
+    velocity and ``jerk dt^2`` of its extrapolation at the previous acceleration; when those
+    two do not meet (a step already gave up smoothness), the acceleration's alone."""
+    for j in range(qdot_prev.shape[0]):
+        a_lo, a_hi = qdot_prev[j] - acc[j] * dt_s, qdot_prev[j] + acc[j] * dt_s
+        centre = qdot_prev[j] + qddot_prev[j] * dt_s
+        j_lo, j_hi = centre - jerk[j] * dt_s * dt_s, centre + jerk[j] * dt_s * dt_s
+        lo[j], hi[j] = max(a_lo, j_lo), min(a_hi, j_hi)
+        if lo[j] > hi[j]:
+            lo[j], hi[j] = a_lo, a_hi
+
+
+@numba.njit(cache=True)
+def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, human_f, settings_f, out_f,
+             out_i):  # pragma: no cover - compiled
+    """One step (see the module docstring); returns the status (``STATUS_*``)."""
+    (nq, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, limited, axes, placement_R, placement_t,
+     ee_R, ee_t, cap_p0l, cap_p1l, radius, lower, upper, vel, acc, jerk, ee_limits, lever) = unpack_robot(
+        robot_i, robot_f)
+    (max_speed, activation_m, buffer_m, buffer_rad, recovery_gain, width_m, width_rad, brake_share, null_weight,
+     w_threshold, damping_max, orientation_gain, centering_gain, field_critical, field_influence, field_k_rep,
+     field_max_rep, field_damping) = settings_f[0], settings_f[1], settings_f[2], settings_f[3], settings_f[4], \
+        settings_f[5], settings_f[6], settings_f[7], settings_f[8], settings_f[9], settings_f[10], settings_f[11], \
+        settings_f[12], settings_f[13], settings_f[14], settings_f[15], settings_f[16], settings_f[17]
+    ssm_params = settings_f[18:24]
+    q = state_f[0:nq].copy()
+    qdot_prev = state_f[nq:nq + nv].copy()
+    qddot_prev = state_f[nq + nv:nq + 2 * nv].copy()
+    u_prev = state_f[nq + 2 * nv:nq + 2 * nv + 3].copy()
+    a_ee_prev = state_f[nq + 2 * nv + 3:nq + 2 * nv + 6].copy()
+    v = command_f[0:3].copy()
+    dt_s = command_f[3]
+    R_ref = command_f[4:13].reshape((3, 3))
+    human_ahead_s = command_f[13]
+    speed_cap = min(command_f[14], max_speed, ee_limits[0])
+    strategy, with_orientation, ssm, force_stop = command_i[0], command_i[1] != 0, command_i[2] != 0, \
+        command_i[3] != 0
+    ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
+    out_i[:] = 0
+    out_f[:] = 0.0
+    hp0, hp1, hr, hv0, hv1 = human_kind.unpack_human(human_f, human_ahead_s)
+    hum = (hp0, hp1, hr, hv0, hv1)
+    n_caps = cap_joint.shape[0]
+    n_lim = scene_i.shape[0]
+    # ---- 1. kinematics and task --------------------------------------------------------------
+    oR, op, p_ee, R_ee, J6, p0, p1 = kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t,
+                                                support, ee_joint, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, nv)
+    kin = (q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited)
+    speed = np.sqrt(np.sum(v * v))
+    if speed > speed_cap:
+        v = v * (speed_cap / speed)
+    J = np.ascontiguousarray(J6[:3])
+    error = log3(R_ref @ R_ee.T) if with_orientation else np.zeros(3)
+    centering = np.zeros(nv)
+    for i in range(limited.shape[0]):
+        iq, iv = limited[i, 0], limited[i, 1]
+        span = max(upper[iq] - lower[iq], 1e-6)
+        centering[iv] = -centering_gain * (q[iq] - 0.5 * (lower[iq] + upper[iq])) / span
+    M, c = task_mapping(J, np.ascontiguousarray(J6[3:]), error, centering, damping_max, w_threshold,
+                        orientation_gain, 0.5 * vel, with_orientation)
+    # ---- 2. rows -----------------------------------------------------------------------------
+    reals = scene_f.copy()
+    n_human = hr.shape[0]
+    max_lim_rows, n_before = 0, 0
+    before_start = np.zeros(n_lim + 1, dtype=np.int64)
+    for con in range(n_lim):
+        kind = scene_i[con, 0]
+        if strategy == REACTIVE and kind == human_kind.KIND:
+            reals[con, 0] = field_critical  # the field keeps its own critical distance
+        size = kind_count(kind, reals[con], scene_i[con, 1], n_caps, limited.shape[0], n_human)
+        if size < 0:
+            out_i[I_STATUS] = STATUS_UNKNOWN_KIND
+            return STATUS_UNKNOWN_KIND
+        before_start[con + 1] = before_start[con] + size
+        max_lim_rows += size
+    n_before = before_start[n_lim]
+    dist, A, rate = np.empty(max_lim_rows), np.empty((max_lim_rows, nv)), np.empty(max_lim_rows)
+    angular, tag = np.empty(max_lim_rows, dtype=np.bool_), np.empty((max_lim_rows, 3), dtype=np.int64)
+    before = np.empty(n_before)
+    out = (dist, A, rate, angular, tag)
+    m = 0
+    for con in range(n_lim):
+        kind = scene_i[con, 0]
+        m = kind_rows(kind, reals[con], scene_i[con, 1], con, kin, hum,
+                      reals[con, 1] if kind == human_kind.KIND else activation_m, out, m,
+                      before[before_start[con]:before_start[con + 1]])
+    is_human = np.zeros(m, dtype=np.bool_)
+    separation = np.full(m, np.inf)  # the human rows' capsule distance [m]
+    human_skip = 1
+    for i in range(m):
+        is_human[i] = scene_i[tag[i, 0], 0] == human_kind.KIND
+        if is_human[i]:
+            separation[i] = dist[i] + reals[tag[i, 0], 0]
+    for con in range(n_lim):
+        if scene_i[con, 0] == human_kind.KIND:
+            human_skip = min(scene_i[con, 1], n_caps)
+    # ---- 3. the strategy's target ------------------------------------------------------------
+    q0 = M @ v + c
+    Z = null_basis(J)
+    nz = 3 + Z.shape[1]
+    B = np.zeros((nv, nz))
+    B[:, :3] = M
+    B[:, 3:] = Z / null_weight
+    stopped = False
+    protective = False
+    if strategy == REACTIVE:
+        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
+        q0, stopped = field_velocity(J, v, d_min, capsule, pr, ph, cap_joint, oR, op, axes, idx_v, support,
+                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
+        B = np.eye(nv)
+    elif strategy == OFF:
+        B = np.eye(nv)
+    bounds = np.empty(m)
+    keep = np.ones(m, dtype=np.bool_)
+    limitation_bounds(dist, A, rate, angular, separation, m, q0, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share,
+                      buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params, bounds,
+                      keep)
+    if ssm and n_human > 0 and strategy != OFF:
+        # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
+        approach = 0.0
+        for i in range(m):
+            if is_human[i]:
+                toward = 0.0
+                for j in range(nv):
+                    toward -= A[i, j] * qdot_prev[j]
+                approach = max(approach, toward)
+        for i in range(m):
+            if is_human[i] and separation[i] < ssm_protective_distance(approach, ssm_params):
+                protective = True
+    if strategy == STOP:
+        for i in range(m):
+            if keep[i]:
+                rate_q0 = 0.0
+                for j in range(nv):
+                    rate_q0 += A[i, j] * q0[j]
+                if rate_q0 < bounds[i] - 1e-12:
+                    stopped = True
+    if stopped or protective or force_stop:
+        q0 = np.zeros(nv)
+    # ---- 4. the rows the filter keeps ----------------------------------------------------------
+    capacity = m + 4 * nv + 6 + SPEED_CUTS
+    N = np.zeros((capacity, nv))
+    b = np.empty(capacity)
+    group = np.empty(capacity, dtype=np.int64)
+    code = np.empty(capacity, dtype=np.int64)
+    count = 0
+    if strategy != OFF:
+        for i in range(m):
+            bound = bounds[i]
+            if strategy == REACTIVE and is_human[i]:
+                if not ssm:
+                    continue  # the field itself answers the human
+                bound = -ssm_approach_speed(separation[i], ssm_params)  # its SSM layer only
+            elif not keep[i]:
+                continue
+            N[count] = A[i]
+            b[count], group[count] = bound, LIMITATION
+            code[count] = row_code(tag[i, 0], tag[i, 1], tag[i, 2])
+            count += 1
+    for j in range(nv):
+        for side in range(2):
+            N[count, j] = 1.0 if side == 0 else -1.0
+            b[count], group[count] = -vel[j], VELOCITY
+            code[count] = row_code(OWNER_VELOCITY, j, side)
+            count += 1
+    lo, hi = np.empty(nv), np.empty(nv)
+    motion_box(qdot_prev, qddot_prev, acc, jerk, dt_s, lo, hi)
+    for j in range(nv):
+        for side in range(2):
+            if (side == 0 and lo[j] <= -vel[j]) or (side == 1 and hi[j] >= vel[j]):
+                continue  # the speed limit is the stricter
+            N[count, j] = 1.0 if side == 0 else -1.0
+            b[count], group[count] = (lo[j] if side == 0 else -hi[j]), MOTION
+            code[count] = row_code(OWNER_MOTION, j, side)
+            count += 1
+    # The end-effector's acceleration and jerk, per axis (each / sqrt(3): the norm holds).
+    ee_lo, ee_hi = np.empty(3), np.empty(3)
+    motion_box(u_prev, a_ee_prev, np.full(3, ee_acc / np.sqrt(3.0)), np.full(3, ee_jerk / np.sqrt(3.0)), dt_s,
+               ee_lo, ee_hi)
+    for r in range(3):
+        for side in range(2):
+            sign = 1.0 if side == 0 else -1.0
+            N[count] = sign * J[r]
+            b[count], group[count] = (ee_lo[r] if side == 0 else -ee_hi[r]), MOTION
+            code[count] = row_code(OWNER_EE_MOTION, r, side)
+            count += 1
+    # ---- 5. filter -----------------------------------------------------------------------------
+    cap = speed_cap if strategy != OFF else ee_speed
+    qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap)
+    for i in range(count, rows):
+        code[i] = row_code(OWNER_SPEED, 0, 0)
+    # ---- 6. integrate and re-check --------------------------------------------------------------
+    travel_sum, travel_max = 0.0, 0.0
+    for j in range(nv):
+        travel_sum += abs(qdot[j]) * dt_s
+        travel_max = max(travel_max, abs(qdot[j]) * dt_s)
+    reach_linear = lever * travel_sum + CROSSING_TOLERANCE_M
+    reach_angular = travel_max + CROSSING_TOLERANCE_M
+    checked = np.zeros(n_lim, dtype=np.bool_)
+    if strategy != OFF:
+        for con in range(n_lim):
+            start, stop = before_start[con], before_start[con + 1]
+            if stop > start:
+                part_min = before[start:stop].min()
+                checked[con] = part_min <= (reach_angular if scene_i[con, 0] == joint_range.KIND else reach_linear)
+    net_scale, low, high = 1.0, 0.0, 1.0
+    q_next = q.copy()
+    after = np.empty(n_before)
+    for attempt in range(27):
+        # attempt 0: the full step; 1..25: bisection on its scale; 26: the scale found.
+        scale = 1.0 if attempt == 0 else (low if attempt == 26 else 0.5 * (low + high))
+        integrate(q, qdot * scale * dt_s, jtype, idx_q, idx_v, q_next)
+        if strategy == OFF:  # the joints' own end stops
+            for i in range(limited.shape[0]):
+                iq = limited[i, 0]
+                q_next[iq] = min(max(q_next[iq], lower[iq]), upper[iq])
+        oR2, op2, p_ee2, R_ee2, J62, p02, p12 = kinematics(q_next, jtype, axes, parent, idx_q, idx_v, placement_R,
+                                                           placement_t, support, ee_joint, ee_R, ee_t, cap_joint,
+                                                           cap_p0l, cap_p1l, nv)
+        if attempt == 26:
+            net_scale = low
+            break
+        kin2 = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
+                limited)
+        admissible = True
+        for con in range(n_lim):
+            if not checked[con]:
+                continue
+            start, stop = before_start[con], before_start[con + 1]
+            kind_distances(scene_i[con, 0], reals[con], scene_i[con, 1], kin2, hum, after[start:stop])
+            for i in range(start, stop):
+                if after[i] < min(before[i], 0.0) - CROSSING_TOLERANCE_M:
+                    admissible = False
+                    break
+            if not admissible:
+                break
+        if attempt == 0:
+            if admissible:
+                break
+        elif admissible:
+            low = scale
+        else:
+            high = scale
+    qdot_exec = qdot * net_scale
+    # ---- 7. outputs and the next step's state ---------------------------------------------------
+    offsets = output_layout(nq, nv, n_caps)
+    v_executed = (p_ee2 - p_ee) / dt_s
+    out_f[offsets[0]:offsets[1]] = q_next
+    out_f[offsets[1]:offsets[2]] = qdot_exec
+    out_f[offsets[2]:offsets[3]] = p_ee2
+    out_f[offsets[3]:offsets[4]] = R_ee2.ravel()
+    out_f[offsets[4]:offsets[5]] = J62.ravel()
+    out_f[offsets[5]:offsets[6]] = p02.ravel()
+    out_f[offsets[6]:offsets[7]] = p12.ravel()
+    out_f[offsets[7]:offsets[8]] = J @ qdot_exec
+    out_f[offsets[8]:offsets[9]] = v_executed
+    robot_point, human_point = np.empty(3), np.empty(3)
+    kin_next = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
+                limited)
+    out_f[offsets[9]] = human_kind.closest_pair(human_skip, kin_next, hum, robot_point, human_point)
+    out_f[offsets[10]:offsets[11]] = robot_point
+    out_f[offsets[11]:offsets[12]] = human_point
+    out_f[offsets[12]] = net_scale
+    worst, worst_code, relaxed_rows, motion_violation = 0.0, -1, 0, 0.0
+    n_binding, n_motion = 0, 0
+    codes = out_i[OUT_I_HEADER:]
+    motion_codes = np.empty(rows, dtype=np.int64)
+    tolerance = 1e-9
+    for i in range(rows):
+        rate_i = 0.0
+        for j in range(nv):
+            rate_i += N[i, j] * qdot[j]
+        slack = rate_i - (b[i] - violation[i])
+        if group[i] == MOTION:
+            motion_violation = max(motion_violation, violation[i])
+            if slack <= BINDING_TOLERANCE or violation[i] > tolerance:
+                motion_codes[n_motion] = code[i]
+                n_motion += 1
+            continue
+        if violation[i] > tolerance:
+            relaxed_rows += 1
+            if violation[i] > worst:
+                worst, worst_code = violation[i], code[i]
+        if slack <= BINDING_TOLERANCE and n_binding < codes.shape[0]:
+            codes[n_binding] = code[i]
+            n_binding += 1
+    for i in range(n_motion):
+        if n_binding + i < codes.shape[0]:
+            codes[n_binding + i] = motion_codes[i]
+    out_f[offsets[13]] = worst
+    out_f[offsets[14]] = motion_violation
+    out_i[I_STATUS] = STATUS_DONE
+    out_i[I_LEVEL] = level
+    user_moves = speed > 0.0 and not (stopped or protective or force_stop)
+    ee_commanded = np.sqrt(np.sum((J @ qdot) ** 2))
+    out_i[I_STOPPED] = int(stopped or protective or force_stop or level == LEVEL_STOPPED or (
+        user_moves and ee_commanded <= 1e-6))
+    out_i[I_BINDING] = n_binding
+    out_i[I_RELAXED] = relaxed_rows if level in (LEVEL_RELAXED, LEVEL_APPROACH_NOTHING) else 0
+    out_i[I_WORST] = worst_code
+    out_i[I_MOTION_LIMITED] = int(n_motion > 0)
+    out_i[I_MOTION_COUNT] = n_motion
+    out_i[I_SMOOTHNESS] = int(motion_violation > tolerance or net_scale < 1.0)
+    out_i[I_PROTECTIVE] = int(protective)
+    state_f[0:nq] = q_next
+    state_f[nq:nq + nv] = qdot_exec
+    state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s
+    state_f[nq + 2 * nv:nq + 2 * nv + 3] = v_executed
+    state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = (v_executed - u_prev) / dt_s
+    return STATUS_DONE
