@@ -18,3 +18,7 @@ class UnknownRobotError(CobotSafetyError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+class MotionLimitsError(CobotSafetyError, ValueError):
+    """A robot's motion-limit table is missing, incomplete or invalid; the message names robot and joint."""
