@@ -1,5 +1,11 @@
 """How fast a limitation may be approached: the speed from which the arm can still stop before it.
 
+``viable_speed`` is the bound the filter uses: from the approach speed *and acceleration* now,
+the fastest approach for the next step from which jerk-limited braking still stops before the
+limitation (so following it never asks for a jump in acceleration). ``braking_speed`` is the
+same for an arm assumed to be accelerating toward the limitation at its limit: a bound on the
+speed alone, the fallback when the state is already beyond ``viable_speed``'s reach.
+
 A limitation at gap ``g`` (its distance minus the filter's buffer) [m or rad] may be approached
 at speed ``v`` only if braking stops within ``g``. Braking is modelled as a real arm's
 controller does it, under an acceleration limit ``a`` and a jerk limit ``j`` along the
@@ -51,3 +57,64 @@ def braking_speed(gap, decel, jerk, dt_s):  # pragma: no cover - compiled
     at = decel * tau
     speed = -at + np.sqrt(at * at + 2.0 * decel * room)
     return min(speed, gap / dt_s)
+
+
+@numba.njit(cache=True)
+def stop_distance(speed, accel, decel, jerk, dt_s):  # pragma: no cover - compiled
+    """How far toward the limitation [m or rad] the arm still goes when it brakes now from
+    ``speed`` (toward it: > 0) and acceleration ``accel`` (toward it: > 0): the acceleration
+    ramps down to ``-decel`` at ``jerk``, then holds ``-decel`` until the speed is zero.
+
+    Phase 1 (``t <= t1 = (accel + decel) / jerk``): ``v(t) = speed + accel t - jerk t^2 / 2``,
+    ``x(t) = speed t + accel t^2 / 2 - jerk t^3 / 6``; the farthest point is where ``v`` turns
+    negative (``t+ = (accel + sqrt(accel^2 + 2 jerk speed)) / jerk``) if that is within phase 1,
+    else phase 2 adds ``v(t1)^2 / 2 decel``. Plus the discrete steps' excess (each step holds
+    its velocity for ``dt``): ``max(speed, 0) dt / 2 + decel dt^2``."""
+    excess = max(speed, 0.0) * 0.5 * dt_s + decel * dt_s * dt_s
+    accel = min(max(accel, -decel), decel)
+    t1 = (accel + decel) / jerk
+    disc = accel * accel + 2.0 * jerk * speed
+    if disc >= 0.0:
+        t_turn = (accel + np.sqrt(disc)) / jerk
+        if 0.0 <= t_turn <= t1:
+            x = speed * t_turn + 0.5 * accel * t_turn * t_turn - jerk * t_turn ** 3 / 6.0
+            return max(x, 0.0) + excess
+    elif speed <= 0.0:
+        return excess  # moving away and never turning back within the ramp
+    v1 = speed + accel * t1 - 0.5 * jerk * t1 * t1
+    x1 = speed * t1 + 0.5 * accel * t1 * t1 - jerk * t1 ** 3 / 6.0
+    if v1 <= 0.0:
+        return max(x1, 0.0) + excess
+    return max(x1 + v1 * v1 / (2.0 * decel), 0.0) + excess
+
+
+@numba.njit(cache=True)
+def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no cover - compiled
+    """The fastest approach [m/s or rad/s] for the next step from which the arm can still brake
+    before the limitation, given its approach ``speed`` and acceleration ``accel`` now and its
+    limits along the normal (``decel``, ``jerk``): the largest ``s'`` with
+    ``stop_distance(s', a') <= gap - s' dt``, ``a' = (s' - speed) / dt`` (within ``+-decel``).
+    It bounds viability only (how fast the arm may reach is the motion limits' business):
+    ``inf`` when even ``speed_cap`` is viable. Enforced at every step, it never asks the arm
+    for more than ``decel`` and ``jerk``: the hardest braking allowed now (``accel - jerk dt``)
+    keeps the state viable, and braking from it needs no more. NaN when even that is not enough
+    (a human appearing closer than the arm can brake for, a start inside a limitation): the
+    caller falls back to ``braking_speed`` and smoothness gives way."""
+    if gap <= 0.0:
+        return np.nan
+    lo = max(accel - jerk * dt_s, -decel)
+    s_lo = speed + lo * dt_s
+    if stop_distance(s_lo, lo, decel, jerk, dt_s) > gap - s_lo * dt_s:
+        return np.nan
+    s_hi = max(speed_cap, s_lo)
+    a_hi = min(max((s_hi - speed) / dt_s, -decel), decel)
+    if stop_distance(s_hi, a_hi, decel, jerk, dt_s) <= gap - s_hi * dt_s:
+        return np.inf
+    for _ in range(48):
+        s_mid = 0.5 * (s_lo + s_hi)
+        a_mid = min(max((s_mid - speed) / dt_s, -decel), decel)
+        if stop_distance(s_mid, a_mid, decel, jerk, dt_s) <= gap - s_mid * dt_s:
+            s_lo = s_mid
+        else:
+            s_hi = s_mid
+    return s_lo

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import braking_speed
+from cobotsafety.arm.braking import braking_speed, viable_speed
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_STOPPED,
                                           LIMITATION, MOTION, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
@@ -66,6 +66,8 @@ STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
 OWNER_VELOCITY, OWNER_MOTION, OWNER_SPEED, OWNER_EE_MOTION = -1, -2, -3, -4
 CROSSING_TOLERANCE_M = 1e-9
+#: The share of the end-effector's acceleration and jerk limits the filter plans with.
+EE_MOTION_SHARE = 0.9
 
 
 @numba.njit(cache=True)
@@ -196,15 +198,16 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, count, q0, dt_s, acc, jerk, vel, ee_acc, ee_jerk,
-                      brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm,
-                      ssm_params, bounds, keep):  # pragma: no cover - compiled
+def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel,
+                      ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
+                      speed_cap, ssm, ssm_params, bounds, keep):  # pragma: no cover - compiled
     """Each row's bound ``b`` of ``a . qdot >= b`` into ``bounds``; ``keep`` False for rows no
     velocity within the joints' limits can break.
 
-    Outside the buffer: approach no faster than the arm can brake before the limitation
-    (``braking_speed`` at what the joints can give along the row, ``brake_share`` of their
-    limits, at most the end-effector's for metric rows), and no more than the gap in one step;
+    Outside the buffer: approach no faster than the arm can brake before the limitation from
+    its approach speed and acceleration now (``viable_speed``; ``braking_speed`` when that is
+    already out of reach) at what the joints can give along the row (``brake_share`` of their
+    limits, at most the end-effector's for metric rows);
     paper 1's damped zone when a width is set. Inside it: drift out at ``recovery_gain`` times
     the intrusion (never deeper). A human's own approach (``rate`` < 0) is added; with SSM the
     arm's own approach to a human (rows with a finite ``separation`` [m], the capsules'
@@ -228,18 +231,25 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, dt_s, acc, 
             keep[i] = False
             continue
         gap = dist[i] - (buffer_rad if angular[i] else buffer_m)
+        human_closing = -min(rate[i], 0.0)
         if gap <= 0.0:
-            bound = -recovery_gain * gap
+            bound = -recovery_gain * gap + human_closing
         else:
-            bound = -braking_speed(gap, decel, jerk_n, dt_s)
+            speed_now, accel_now = human_closing, 0.0
+            for j in range(nv):
+                speed_now -= A[i, j] * qdot_prev[j]
+                accel_now -= A[i, j] * qddot_prev[j]
+            allowed = viable_speed(gap, speed_now, accel_now, decel, jerk_n, dt_s, reach + human_closing)
+            if np.isnan(allowed):
+                allowed = braking_speed(gap, decel, jerk_n, dt_s)
+            bound = human_closing - allowed
             width = width_rad if angular[i] else width_m
             if width > 0.0 and gap < width:
                 desired = rate[i]
                 for j in range(nv):
                     desired += A[i, j] * q0[j]
                 if desired < 0.0:
-                    bound = max(bound, gap / width * desired)
-        bound -= min(rate[i], 0.0)
+                    bound = max(bound, gap / width * desired - min(rate[i], 0.0))
         if ssm and np.isfinite(separation[i]):
             bound = max(bound, -ssm_approach_speed(separation[i], ssm_params))
         bounds[i] = min(bound, speed_cap if not angular[i] else 0.5 * reach)
@@ -380,7 +390,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
         B = np.eye(nv)
     bounds = np.empty(m)
     keep = np.ones(m, dtype=np.bool_)
-    limitation_bounds(dist, A, rate, angular, separation, m, q0, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share,
+    limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share,
                       buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params, bounds,
                       keep)
     if ssm and n_human > 0 and strategy != OFF:
@@ -441,10 +451,12 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
             b[count], group[count] = (lo[j] if side == 0 else -hi[j]), MOTION
             code[count] = row_code(OWNER_MOTION, j, side)
             count += 1
-    # The end-effector's acceleration and jerk, per axis (each / sqrt(3): the norm holds).
+    # The end-effector's acceleration and jerk, per axis (each / sqrt(3): the norm holds), on
+    # the first-order velocity J qdot: EE_MOTION_SHARE leaves the rest to the second-order
+    # motion (the executed velocity is J qdot plus a term in qdot^2 dt).
     ee_lo, ee_hi = np.empty(3), np.empty(3)
-    motion_box(u_prev, a_ee_prev, np.full(3, ee_acc / np.sqrt(3.0)), np.full(3, ee_jerk / np.sqrt(3.0)), dt_s,
-               ee_lo, ee_hi)
+    share = EE_MOTION_SHARE / np.sqrt(3.0)
+    motion_box(u_prev, a_ee_prev, np.full(3, share * ee_acc), np.full(3, share * ee_jerk), dt_s, ee_lo, ee_hi)
     for r in range(3):
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0

@@ -1,8 +1,10 @@
 """A half-space zone (a wall): everything on the side ``normal`` points to from ``point`` is
 forbidden.
 
-Rows (metres): ``-max(s0, s1) - r`` for each robot capsule (``s`` the signed heights of its end
-points over the plane), gradient ``-n . J_p`` at the deeper end point.
+Rows (metres): for each robot capsule, both end points' clearance ``-s - r`` (``s`` the end
+point's signed height over the plane, ``r`` the capsule's radius), gradient ``-n . J_p`` at that
+end point. The capsule's clearance is the smaller of the two; keeping both as rows keeps each
+smooth (the smaller one switches ends as the capsule tilts: its gradient would jump).
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ def row_name(zone: HalfSpaceZone, robot, a: int, b: int) -> str:
 
 @numba.njit(cache=True)
 def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
-    return max(n_caps - skip, 0)
+    return 2 * max(n_caps - skip, 0)
 
 
 @numba.njit(cache=True)
@@ -56,7 +58,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
     for i in range(p0.shape[0] - skip):
         s0, s1 = _heights(real, p0, p1, skip + i)
-        out[i] = -max(s0, s1) - radius[skip + i]
+        out[2 * i], out[2 * i + 1] = -s0 - radius[skip + i], -s1 - radius[skip + i]
 
 
 @numba.njit(cache=True)
@@ -67,14 +69,14 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     for i in range(p0.shape[0] - skip):
         c = skip + i
         s0, s1 = _heights(real, p0, p1, c)
-        value = -max(s0, s1) - radius[c]
-        before[i] = value
-        if value >= activation_m:
-            continue
-        deepest = p0[c] if s0 >= s1 else p1[c]
-        dist[m] = value
-        point_jacobian_row(away, deepest, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-        rate[m], angular[m] = 0.0, False
-        tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
-        m += 1
+        for end in range(2):
+            value = -(s0 if end == 0 else s1) - radius[c]
+            before[2 * i + end] = value
+            if value >= activation_m:
+                continue
+            dist[m] = value
+            point_jacobian_row(away, p0[c] if end == 0 else p1[c], cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            rate[m], angular[m] = 0.0, False
+            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, end
+            m += 1
     return m

@@ -1,7 +1,8 @@
 """The table (or floor): no robot capsule goes below the plane ``z = height_m``.
 
-Rows (metres): for each capsule from ``skip_capsules`` on, its lowest end's height above the
-plane minus its radius; gradient the z row of that end point's Jacobian.
+Rows (metres): for each capsule from ``skip_capsules`` on, both end points' height above the
+plane minus the capsule's radius; gradient the z row of that end point's Jacobian (both ends
+are rows: the lower one switches as the capsule tilts, and its gradient would jump).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def row_name(limitation: TablePlane, robot, a: int, b: int) -> str:
 
 @numba.njit(cache=True)
 def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
-    return max(n_caps - skip, 0)
+    return 2 * max(n_caps - skip, 0)
 
 
 @numba.njit(cache=True)
@@ -46,7 +47,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
     for i in range(p0.shape[0] - skip):
         c = skip + i
-        out[i] = min(p0[c, 2], p1[c, 2]) - radius[c] - real[0]
+        out[2 * i], out[2 * i + 1] = p0[c, 2] - radius[c] - real[0], p1[c, 2] - radius[c] - real[0]
 
 
 @numba.njit(cache=True)
@@ -56,13 +57,14 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     up = np.array([0.0, 0.0, 1.0])
     for i in range(p0.shape[0] - skip):
         c = skip + i
-        low = p0[c] if p0[c, 2] <= p1[c, 2] else p1[c]
-        value = low[2] - radius[c] - real[0]
-        before[i] = value
-        if value < activation_m:
-            dist[m] = value
-            point_jacobian_row(up, low, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-            rate[m], angular[m] = 0.0, False
-            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
-            m += 1
+        for end in range(2):
+            point = p0[c] if end == 0 else p1[c]
+            value = point[2] - radius[c] - real[0]
+            before[2 * i + end] = value
+            if value < activation_m:
+                dist[m] = value
+                point_jacobian_row(up, point, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+                rate[m], angular[m] = 0.0, False
+                tag[m, 0], tag[m, 1], tag[m, 2] = con, c, end
+                m += 1
     return m
