@@ -199,7 +199,8 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
     b (m,), all finite). ``status``: ``SOLVED``; ``INFEASIBLE`` (the rows contradict each
     other; ``advance`` is the largest violation of the unit rows at ``v``, as the error says);
     ``ZERO_ROW_INFEASIBLE`` (a zero row with a positive bound); ``NOT_MET`` (the answer
-    misses a row by more than the tolerance: rounding on an ill-conditioned problem).
+    misses a row by more than the tolerance: rounding on an ill-conditioned problem). A bound
+    of -inf makes its row inactive.
 
     Overflow-safe: each row is divided by its largest entry and then by its norm, and when
     ``v`` or ``b`` are huge (> 1e100) the problem is solved scaled down (the projection is
@@ -212,7 +213,8 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
     for k in range(n):
         size = max(size, abs(v[k]))
     for i in range(m):
-        size = max(size, abs(b[i]))
+        if np.isfinite(b[i]):
+            size = max(size, abs(b[i]))
     scale = size if size > 1e100 else 1.0
     vs = v / scale
     G = np.empty((m, n))
@@ -223,6 +225,8 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
         largest = 0.0
         for k in range(n):
             largest = max(largest, abs(N[i, k]))
+        if b[i] == -np.inf:  # no bound: an inactive row
+            largest = 0.0
         if largest == 0.0:
             for k in range(n):
                 G[i, k] = 0.0

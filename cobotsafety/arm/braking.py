@@ -35,6 +35,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+#: The most ``safe_speed`` scales the motion limits by to stop before a limitation.
+MAX_BRAKE_FACTOR = 50.0
+
 
 @numba.njit(cache=True)
 def braking_distance(speed, decel, jerk, dt_s):  # pragma: no cover - compiled
@@ -69,8 +72,10 @@ def stop_distance(speed, accel, decel, jerk, dt_s):  # pragma: no cover - compil
     ``x(t) = speed t + accel t^2 / 2 - jerk t^3 / 6``; the farthest point is where ``v`` turns
     negative (``t+ = (accel + sqrt(accel^2 + 2 jerk speed)) / jerk``) if that is within phase 1,
     else phase 2 adds ``v(t1)^2 / 2 decel``. Plus the discrete steps' excess (each step holds
-    its velocity for ``dt``): ``max(speed, 0) dt / 2 + decel dt^2``."""
-    excess = max(speed, 0.0) * 0.5 * dt_s + decel * dt_s * dt_s
+    its velocity for ``dt``): ``max(speed, 0) dt / 2 + decel dt^2 / 8`` (the sum of a braking
+    sequence's steps exceeds the integral by half the first step, plus at most an eighth of a
+    step's change at the end)."""
+    excess = max(speed, 0.0) * 0.5 * dt_s + 0.125 * decel * dt_s * dt_s
     accel = min(max(accel, -decel), decel)
     t1 = (accel + decel) / jerk
     disc = accel * accel + 2.0 * jerk * speed
@@ -118,3 +123,28 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
         else:
             s_hi = s_mid
     return s_lo
+
+
+@numba.njit(cache=True)
+def safe_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no cover - compiled
+    """``viable_speed``, and when the state is beyond its reach, the same bound with the
+    deceleration and jerk scaled up by the least factor (found by bisection, at most 1000)
+    that makes it viable again: safety wins over smoothness, exceeding the motion limits only as
+    much as stopping before the limitation needs. Returns ``(speed [m/s or rad/s], factor)``
+    (factor 1: within the limits); at a gap <= 0, ``(0, 1)``; beyond ``MAX_BRAKE_FACTOR``,
+    ``braking_speed`` at that factor (the step may then close the gap at once)."""
+    allowed = viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap)
+    if not np.isnan(allowed):
+        return allowed, 1.0
+    if gap <= 0.0:
+        return 0.0, 1.0
+    lo, hi = 1.0, MAX_BRAKE_FACTOR
+    if np.isnan(viable_speed(gap, speed, accel, hi * decel, hi * jerk, dt_s, speed_cap)):
+        return braking_speed(gap, hi * decel, hi * jerk, dt_s), hi
+    for _ in range(30):
+        mid = np.sqrt(lo * hi)
+        if np.isnan(viable_speed(gap, speed, accel, mid * decel, mid * jerk, dt_s, speed_cap)):
+            lo = mid
+        else:
+            hi = mid
+    return viable_speed(gap, speed, accel, hi * decel, hi * jerk, dt_s, speed_cap), hi

@@ -70,7 +70,8 @@ YIELD_DWELL_S = 0.3
 #: periods up to 10 ms). Longer than ``MAX_PERIOD_S`` [s]: refused.
 MAX_STEP_S = 0.010
 MAX_PERIOD_S = 1.0
-_LEVEL_REASONS = {1: "retreats contradict", 2: "limits contradict: approaching nothing", 3: "limits contradict: stopped"}
+_LEVEL_REASONS = {1: "safety over smoothness: the motion limits gave way", 2: "retreats contradict",
+                  3: "limits contradict: approaching nothing", 4: "limits contradict: stopped"}
 
 
 class StepError(CobotSafetyError, ValueError):
@@ -98,11 +99,43 @@ def default_zones(p_world_ee_m: np.ndarray) -> list:
     ]
 
 
+#: The extended reach is at most this share of the arm's farthest reach: a fully stretched arm
+#: is singular (the hand cannot be moved along the arm, nor braked along it, with bounded joint
+#: accelerations).
+REACH_SHARE = 0.9
+
+
+def farthest_reach_m(model: RobotModel, centre: np.ndarray, samples: int = 4000, seed: int = 0) -> float:
+    """The farthest the end-effector gets from ``centre`` [m] over ``samples`` configurations
+    drawn uniformly within the joint limits (a generator of our own, seeded)."""
+    import pinocchio as pin  # noqa: PLC0415
+
+    rng = np.random.default_rng(seed)
+    lower = np.where(np.isfinite(model.lower) & (model.lower > -10), model.lower, -np.pi)
+    upper = np.where(np.isfinite(model.upper) & (model.upper < 10), model.upper, np.pi)
+    data = model.model.createData()
+    farthest = 0.0
+    for _ in range(samples):
+        q = pin.neutral(model.model)
+        for j in range(1, model.model.njoints):
+            joint = model.model.joints[j]
+            if joint.nq == 2:  # continuous: (cos, sin)
+                angle = rng.uniform(-np.pi, np.pi)
+                q[joint.idx_q:joint.idx_q + 2] = (np.cos(angle), np.sin(angle))
+            else:
+                q[joint.idx_q] = rng.uniform(lower[joint.idx_q], upper[joint.idx_q])
+        pin.framesForwardKinematics(model.model, data, q)
+        farthest = max(farthest, float(np.linalg.norm(data.oMf[model.ee_frame_id].translation - centre)))
+    return farthest
+
+
 def reach_limits(state: RobotState) -> ReachLimits:
-    """Inner 0.15 m and extended reach from the first capsule's end, sized at the home pose
-    (1.4 x the home reach, at least 0.5 m)."""
-    reach = float(np.linalg.norm(state.p_world_ee - state.capsule_p0[0]))
-    return ReachLimits(tuple(float(x) for x in state.capsule_p0[0]), inner_m=0.15, outer_m=max(0.5, 1.4 * reach))
+    """Inner 0.15 m and extended reach from the first capsule's end, sized at the home pose:
+    1.4 x the home reach (at least 0.5 m), at most ``REACH_SHARE`` of the farthest reach."""
+    centre = np.array(state.capsule_p0[0], dtype=float)
+    reach = float(np.linalg.norm(state.p_world_ee - centre))
+    outer = min(max(0.5, 1.4 * reach), REACH_SHARE * farthest_reach_m(state.robot, centre))
+    return ReachLimits(tuple(float(x) for x in centre), inner_m=0.15, outer_m=outer)
 
 
 class ArmController:
@@ -313,11 +346,11 @@ class ArmController:
         o = self._offsets
         n_binding, n_motion = int(out_i[I_BINDING]), int(out_i[I_MOTION_COUNT])
         codes = out_i[OUT_I_HEADER:OUT_I_HEADER + n_binding + n_motion].tolist()
-        binding = tuple(self._name(code) for code in codes[:n_binding])
+        binding = tuple(dict.fromkeys(self._name(code) for code in codes[:n_binding]))
         motion_limited = tuple(dict.fromkeys(self._name(code) for code in codes[n_binding:]))
         stopped = bool(out_i[I_STOPPED])
         level = int(out_i[I_LEVEL])
-        relaxed = level in (1, 2) and out_i[I_RELAXED] > 0
+        relaxed = level in (2, 3) and out_i[I_RELAXED] > 0
         if level:
             worst = int(out_i[I_WORST])
             detail = f" ({int(out_i[I_RELAXED])} row(s), at most {out_f[o[13]]:.3g} m/s: {self._name(worst)})" \
@@ -350,7 +383,7 @@ class ArmController:
             p_base_ee_m=self.state.p_world_ee, binding=binding, stopped=stopped,
             min_distance_m=distance if math.isfinite(distance) else None,
             extras={"net_scale": float(out_f[o[12]]), "qdot": out_f[o[1]:o[2]], "level": level,
-                    "p_before_m": before},
+                    "p_before_m": before, "brake_factor": float(out_f[o[15]])},
             reason=reason, contradictions=self.contradictions,
             p_robot_closest_m=out_f[o[10]:o[11]] if math.isfinite(distance) else None,
             p_human_closest_m=out_f[o[11]:o[12]] if math.isfinite(distance) else None,

@@ -15,21 +15,25 @@ hand deviation) before it slides the hand. ``B = I`` and ``q0`` a joint velocity
 plain projection of that velocity (paper 2's field, sliding off the limitations).
 
 Every row is a half-space ``a . qdot >= b`` (``tests/test_arm_joint_filter.py`` holds the
-result equal to quadprog's on random problems), in three groups by priority:
+result equal to quadprog's on random problems), in four groups by priority:
 
-* ``LIMITATION``: the limitations' braking bounds (``step_kernel.limitation_bounds``) and the
-  end-effector speed cap (a norm: ``||J qdot|| <= cap``, met by adding its tangent plane at the
-  solution as a row, at most ``SPEED_CUTS`` times);
-* ``VELOCITY``: each joint's speed limit, hard;
+* ``LIMITATION``: each limitation's *safety* bound, the approach from which the arm can still
+  brake before it with its full motion limits (``braking.safe_speed``), and the end-effector
+  speed cap (a norm: ``||J qdot|| <= cap``, met by adding its tangent plane at the solution as a
+  row, at most ``SPEED_CUTS`` times): hard;
+* ``VELOCITY``: each joint's speed limit: hard;
 * ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
-  joint velocities the next step may take from the previous one: soft.
+  velocities the next step may take from the previous one;
+* ``PLAN``: each limitation's *planning* bound, the same with a share of the motion limits
+  (``FilterSettings.brake_share``): the arm plans to brake gently, and has the rest in reserve.
 
-Priorities, from the strictest: every row hard but the motion rows, which give way by least
-squares only as much as the hard rows need (``least_distance.relax_kernel``): safety wins over
-smoothness and each such step is counted; when the hard rows contradict each other, the
-limitations' retreats (bounds > 0: a human closing in, a limit already inside its buffer) give
-way too, each down to "approach nothing" at most; when that fails, every limitation is held at
-"approach nothing"; when that fails too, the arm is stopped (zero joint velocity).
+Priorities, from the strictest: the hard rows always; then the motion rows (the plan's margin
+gives way first, by least squares, ``least_distance.relax_kernel``); then, only when the hard
+rows need it, the motion rows too (safety wins over smoothness: each such step is counted);
+when the hard rows contradict each other, the limitations' retreats (bounds > 0: a human
+closing in, a limit already inside its buffer) give way too, each down to "approach nothing";
+when that fails, every limitation is held at "approach nothing"; when that fails too, the arm
+is stopped (zero joint velocity).
 """
 
 from __future__ import annotations
@@ -39,9 +43,10 @@ import numpy as np
 
 from cobotsafety.least_distance import RELAX_DONE, RELAXATION_COMMAND_WEIGHT, relax_kernel
 
-LIMITATION, VELOCITY, MOTION = 0, 1, 2
-#: How the filter ended: every row as asked; retreats relaxed; approaching nothing; stopped.
-LEVEL_EXACT, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3
+LIMITATION, VELOCITY, MOTION, PLAN = 0, 1, 2, 3
+#: How the filter ended: within the motion limits; motion limits given up for safety; retreats
+#: relaxed; approaching nothing; stopped.
+LEVEL_EXACT, LEVEL_SMOOTHNESS, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3, 4
 #: The most tangent planes the end-effector's speed cap may add.
 SPEED_CUTS = 3
 #: A row counts as binding when the command is within this of its bound (same unit as ``b``).
@@ -49,9 +54,16 @@ BINDING_TOLERANCE = 1e-9
 
 
 @numba.njit(cache=True)
-def _solve(q0, B, N, b, group, count, retreat_floor):  # pragma: no cover - compiled
-    """One solve of the rows ``[:count]`` at the priorities above; ``(qdot, violation (count,),
-    level)``. ``retreat_floor``: lowest level tried (the cut loop keeps a level once reached)."""
+def _relax(q0, B, G, h, soft, floors):  # pragma: no cover - compiled
+    """``relax_kernel`` on the z-space rows: ``(qdot, violation, done)``."""
+    z, violation, status, _, _ = relax_kernel(np.zeros(G.shape[1]), G, h, soft, floors, RELAXATION_COMMAND_WEIGHT)
+    return q0 + B @ z, violation, status == RELAX_DONE
+
+
+@numba.njit(cache=True)
+def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compiled
+    """One solve of the rows ``[:count]`` at the priorities above, from level ``first_level``
+    on (the cut loop keeps a level once reached): ``(qdot, violation (count,), level)``."""
     nv, nz = B.shape
     G = np.zeros((count, nz))
     h = np.empty(count)
@@ -70,13 +82,18 @@ def _solve(q0, B, N, b, group, count, retreat_floor):  # pragma: no cover - comp
     soft = np.zeros(count, dtype=np.bool_)
     floors = np.full(count, -np.inf)
     for i in range(count):
-        soft[i] = group[i] == MOTION
-    zero = np.zeros(nz)
-    if retreat_floor <= LEVEL_EXACT:
-        z, violation, status, _, _ = relax_kernel(zero, G, h, soft, floors, RELAXATION_COMMAND_WEIGHT)
-        if status == RELAX_DONE:
-            return q0 + B @ z, violation, LEVEL_EXACT
-    if retreat_floor <= LEVEL_RELAXED:
+        soft[i] = group[i] == PLAN
+    if first_level <= LEVEL_EXACT:
+        qdot, violation, done = _relax(q0, B, G, h, soft, floors)
+        if done:
+            return qdot, violation, LEVEL_EXACT
+    for i in range(count):
+        soft[i] = group[i] == PLAN or group[i] == MOTION
+    if first_level <= LEVEL_SMOOTHNESS:
+        qdot, violation, done = _relax(q0, B, G, h, soft, floors)
+        if done:
+            return qdot, violation, LEVEL_SMOOTHNESS
+    if first_level <= LEVEL_RELAXED:
         relaxable = soft.copy()
         any_retreat = False
         for i in range(count):
@@ -85,20 +102,20 @@ def _solve(q0, B, N, b, group, count, retreat_floor):  # pragma: no cover - comp
                 floors[i] = -base[i]  # a . qdot >= 0: approach nothing
                 any_retreat = True
         if any_retreat:
-            z, violation, status, _, _ = relax_kernel(zero, G, h, relaxable, floors, RELAXATION_COMMAND_WEIGHT)
-            if status == RELAX_DONE:
-                return q0 + B @ z, violation, LEVEL_RELAXED
+            qdot, violation, done = _relax(q0, B, G, h, relaxable, floors)
+            if done:
+                return qdot, violation, LEVEL_RELAXED
         for i in range(count):
             floors[i] = -np.inf
     lowered = h.copy()
     for i in range(count):
-        if group[i] == LIMITATION and b[i] > 0.0:
+        if (group[i] == LIMITATION or group[i] == PLAN) and b[i] > 0.0:
             lowered[i] = -base[i]
-    z, violation, status, _, _ = relax_kernel(zero, G, lowered, soft, floors, RELAXATION_COMMAND_WEIGHT)
-    if status == RELAX_DONE:
+    qdot, violation, done = _relax(q0, B, G, lowered, soft, floors)
+    if done:
         for i in range(count):
             violation[i] += h[i] - lowered[i]
-        return q0 + B @ z, violation, LEVEL_APPROACH_NOTHING
+        return qdot, violation, LEVEL_APPROACH_NOTHING
     return np.zeros(nv), np.zeros(count), LEVEL_STOPPED
 
 

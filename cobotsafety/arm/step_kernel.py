@@ -43,9 +43,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import braking_speed, viable_speed
+from cobotsafety.arm.braking import safe_speed
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_STOPPED,
-                                          LIMITATION, MOTION, SPEED_CUTS, VELOCITY, filter_rows)
+                                          LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
@@ -68,6 +68,9 @@ OWNER_VELOCITY, OWNER_MOTION, OWNER_SPEED, OWNER_EE_MOTION = -1, -2, -3, -4
 CROSSING_TOLERANCE_M = 1e-9
 #: The share of the end-effector's acceleration and jerk limits the filter plans with.
 EE_MOTION_SHARE = 0.9
+#: The motion box is planned this far inside the acceleration and jerk limits, so that the
+#: solver's tolerance (1e-9 on rows scaled to unit length) never pushes a command past them.
+MOTION_MARGIN = 1.0 - 1e-4
 
 
 @numba.njit(cache=True)
@@ -84,8 +87,9 @@ def decode_row(code: int) -> tuple[int, int, int]:
 def output_layout(nq, nv, n_caps):  # pragma: no cover - compiled
     """Offsets in ``out_f``: q_next, qdot, p_ee, R_ee, J6, cap_p0, cap_p1, v_commanded,
     v_executed, min_distance, p_robot, p_human, net_scale, worst_violation, motion_violation,
-    and the total size."""
-    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1)
+    brake_factor (the largest factor by which a bound exceeded the motion limits), and the total
+    size."""
+    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1)
     offsets = np.zeros(len(sizes) + 1, dtype=np.int64)
     for i in range(len(sizes)):
         offsets[i + 1] = offsets[i] + sizes[i]
@@ -202,30 +206,48 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
                       ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
                       speed_cap, ssm, ssm_params, bounds, keep):  # pragma: no cover - compiled
     """Each row's bound ``b`` of ``a . qdot >= b`` into ``bounds``; ``keep`` False for rows no
-    velocity within the joints' limits can break.
+    velocity within the joints' limits can break. ``brake_share``: the share of the motion
+    limits the braking may use (the filter's plan: ``FilterSettings.brake_share``; its safety
+    bound: 1, and no damped zone: width 0).
 
     Outside the buffer: approach no faster than the arm can brake before the limitation from
-    its approach speed and acceleration now (``viable_speed``; ``braking_speed`` when that is
-    already out of reach) at what the joints can give along the row (``brake_share`` of their
-    limits, at most the end-effector's for metric rows);
+    its approach speed and acceleration now (``braking.safe_speed``: beyond reach, with the least
+    excess over the motion limits that still stops before it) at what the joints can give along
+    the row (``brake_share`` of their limits, at most the end-effector's for metric rows);
     paper 1's damped zone when a width is set. Inside it: drift out at ``recovery_gain`` times
     the intrusion (never deeper). A human's own approach (``rate`` < 0) is added; with SSM the
     arm's own approach to a human (rows with a finite ``separation`` [m], the capsules'
     distance) is also at most ISO/TS 15066's speed for that separation. A retreat never asks
-    for more than the speed cap."""
+    for more than the speed cap. Returns the largest factor by which a bound had to exceed the
+    motion limits (1: none)."""
     nv = A.shape[1]
+    worst_factor = 1.0
+    # The whole arm's stop: every joint's velocity scaled down together, as fast as the
+    # bottleneck joint allows (per unit of the scale: 1/s^2, 1/s^3). Budgets taken from it are
+    # met by one and the same braking of the arm, whichever rows bind at once.
+    stop_decel, stop_jerk = np.inf, np.inf
+    for j in range(nv):
+        if abs(qdot_prev[j]) > 1e-9:
+            stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
+            stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
     for i in range(count):
-        decel, jerk_n, reach = 0.0, 0.0, 0.0
+        decel, jerk_n, reach, own_speed = 0.0, 0.0, 0.0, 0.0
         for j in range(nv):
             w = abs(A[i, j])
             decel += w * acc[j]
             jerk_n += w * jerk[j]
             reach += w * vel[j]
+            own_speed -= A[i, j] * qdot_prev[j]
+        if not angular[i]:
+            decel = min(decel, ee_acc)
+            jerk_n = min(jerk_n, ee_jerk)
+        if brake_share < 1.0 and rate[i] == 0.0 and own_speed > 0.0:
+            # The plan brakes as part of the arm's stop (a moving human needs a retreat: its
+            # rows keep the capacity along their own normal).
+            decel = min(decel, own_speed * stop_decel)
+            jerk_n = min(jerk_n, own_speed * stop_jerk)
         decel *= brake_share
         jerk_n *= brake_share
-        if not angular[i]:
-            decel = min(decel, brake_share * ee_acc)
-            jerk_n = min(jerk_n, brake_share * ee_jerk)
         if decel <= 0.0 or jerk_n <= 0.0:
             bounds[i] = -np.inf  # a row the joints cannot move: no half-space on the command
             keep[i] = False
@@ -239,9 +261,8 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
             for j in range(nv):
                 speed_now -= A[i, j] * qdot_prev[j]
                 accel_now -= A[i, j] * qddot_prev[j]
-            allowed = viable_speed(gap, speed_now, accel_now, decel, jerk_n, dt_s, reach + human_closing)
-            if np.isnan(allowed):
-                allowed = braking_speed(gap, decel, jerk_n, dt_s)
+            allowed, factor = safe_speed(gap, speed_now, accel_now, decel, jerk_n, dt_s, reach + human_closing)
+            worst_factor = max(worst_factor, factor)
             bound = human_closing - allowed
             width = width_rad if angular[i] else width_m
             if width > 0.0 and gap < width:
@@ -253,7 +274,8 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
         if ssm and np.isfinite(separation[i]):
             bound = max(bound, -ssm_approach_speed(separation[i], ssm_params))
         bounds[i] = min(bound, speed_cap if not angular[i] else 0.5 * reach)
-        keep[i] = bounds[i] > -reach - 1e-12
+        keep[i] = bounds[i] > -reach - 1e-12  # false for -inf too: a row nothing can break
+    return worst_factor
 
 
 @numba.njit(cache=True)
@@ -275,17 +297,31 @@ def ssm_protective_distance(robot_speed_m_s, ssm_params):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
-def motion_box(qdot_prev, qddot_prev, acc, jerk, dt_s, lo, hi):  # pragma: no cover - compiled
-    """The joint velocities the next step may take [rad/s]: within ``acc dt`` of the previous
+def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: no cover - compiled
+    """The velocities the next step may take [rad/s or m/s]: within ``acc dt`` of the previous
     velocity and ``jerk dt^2`` of its extrapolation at the previous acceleration; when those
-    two do not meet (a step already gave up smoothness), the acceleration's alone."""
+    two do not meet (a step already gave up smoothness), the acceleration's alone. Toward the
+    speed limit ``vel`` the acceleration must still be able to ramp down to zero at the jerk
+    limit before reaching it: ``v' + a'^2 / 2j + a' dt / 2 <= vel`` (the steps of the ramp)."""
     for j in range(qdot_prev.shape[0]):
-        a_lo, a_hi = qdot_prev[j] - acc[j] * dt_s, qdot_prev[j] + acc[j] * dt_s
+        a_step, j_step = MOTION_MARGIN * acc[j] * dt_s, MOTION_MARGIN * jerk[j] * dt_s * dt_s
+        a_lo, a_hi = qdot_prev[j] - a_step, qdot_prev[j] + a_step
         centre = qdot_prev[j] + qddot_prev[j] * dt_s
-        j_lo, j_hi = centre - jerk[j] * dt_s * dt_s, centre + jerk[j] * dt_s * dt_s
+        j_lo, j_hi = centre - j_step, centre + j_step
         lo[j], hi[j] = max(a_lo, j_lo), min(a_hi, j_hi)
         if lo[j] > hi[j]:
             lo[j], hi[j] = a_lo, a_hi
+        for side in range(2):
+            sign = 1.0 if side == 0 else -1.0
+            room = vel[j] - sign * qdot_prev[j]  # speed left before the limit on that side
+            if room <= 0.0:
+                continue
+            # a'^2 / 2j + 1.5 a' dt - room <= 0 (v' = v + a' dt): the largest a' toward the limit.
+            a_max = jerk[j] * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / jerk[j]))
+            if side == 0:
+                hi[j] = max(min(hi[j], qdot_prev[j] + a_max * dt_s), lo[j])
+            else:
+                lo[j] = min(max(lo[j], qdot_prev[j] - a_max * dt_s), hi[j])
 
 
 @numba.njit(cache=True)
@@ -388,8 +424,13 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
         B = np.eye(nv)
     elif strategy == OFF:
         B = np.eye(nv)
-    bounds = np.empty(m)
+    bounds = np.empty(m)  # the plan's bounds
     keep = np.ones(m, dtype=np.bool_)
+    safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
+    safe_keep = np.ones(m, dtype=np.bool_)
+    brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc,
+                                     jerk, vel, ee_acc, ee_jerk, 1.0, buffer_m, buffer_rad, recovery_gain, 0.0, 0.0,
+                                     speed_cap, ssm, ssm_params, safe_bounds, safe_keep)
     limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share,
                       buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params, bounds,
                       keep)
@@ -416,7 +457,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     if stopped or protective or force_stop:
         q0 = np.zeros(nv)
     # ---- 4. the rows the filter keeps ----------------------------------------------------------
-    capacity = m + 4 * nv + 6 + SPEED_CUTS
+    capacity = 2 * m + 4 * nv + 6 + SPEED_CUTS
     N = np.zeros((capacity, nv))
     b = np.empty(capacity)
     group = np.empty(capacity, dtype=np.int64)
@@ -424,17 +465,22 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     count = 0
     if strategy != OFF:
         for i in range(m):
-            bound = bounds[i]
+            plan, safety = bounds[i], safe_bounds[i]
+            with_plan, with_safety = keep[i], safe_keep[i]
             if strategy == REACTIVE and is_human[i]:
                 if not ssm:
                     continue  # the field itself answers the human
-                bound = -ssm_approach_speed(separation[i], ssm_params)  # its SSM layer only
-            elif not keep[i]:
-                continue
-            N[count] = A[i]
-            b[count], group[count] = bound, LIMITATION
-            code[count] = row_code(tag[i, 0], tag[i, 1], tag[i, 2])
-            count += 1
+                safety = -ssm_approach_speed(separation[i], ssm_params)  # its SSM layer only
+                with_plan, with_safety = False, True
+            row = row_code(tag[i, 0], tag[i, 1], tag[i, 2])
+            if with_safety:
+                N[count] = A[i]
+                b[count], group[count], code[count] = safety, LIMITATION, row
+                count += 1
+            if with_plan and (plan > safety or not with_safety):
+                N[count] = A[i]
+                b[count], group[count], code[count] = plan, PLAN, row
+                count += 1
     for j in range(nv):
         for side in range(2):
             N[count, j] = 1.0 if side == 0 else -1.0
@@ -442,7 +488,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
             code[count] = row_code(OWNER_VELOCITY, j, side)
             count += 1
     lo, hi = np.empty(nv), np.empty(nv)
-    motion_box(qdot_prev, qddot_prev, acc, jerk, dt_s, lo, hi)
+    motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi)
     for j in range(nv):
         for side in range(2):
             if (side == 0 and lo[j] <= -vel[j]) or (side == 1 and hi[j] >= vel[j]):
@@ -452,11 +498,13 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
             code[count] = row_code(OWNER_MOTION, j, side)
             count += 1
     # The end-effector's acceleration and jerk, per axis (each / sqrt(3): the norm holds), on
-    # the first-order velocity J qdot: EE_MOTION_SHARE leaves the rest to the second-order
-    # motion (the executed velocity is J qdot plus a term in qdot^2 dt).
+    # the part the joints' acceleration gives it (J qddot, from the previous joint velocity and
+    # acceleration seen through today's Jacobian); EE_MOTION_SHARE leaves the rest to the
+    # motion's curvature (the executed acceleration is J qddot + dJ/dt qdot).
     ee_lo, ee_hi = np.empty(3), np.empty(3)
     share = EE_MOTION_SHARE / np.sqrt(3.0)
-    motion_box(u_prev, a_ee_prev, np.full(3, share * ee_acc), np.full(3, share * ee_jerk), dt_s, ee_lo, ee_hi)
+    motion_box(J @ qdot_prev, J @ qddot_prev, np.full(3, share * ee_acc), np.full(3, share * ee_jerk),
+               np.full(3, np.inf), dt_s, ee_lo, ee_hi)
     for r in range(3):
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
@@ -557,6 +605,11 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
                 motion_codes[n_motion] = code[i]
                 n_motion += 1
             continue
+        if group[i] == PLAN:  # the plan's margin: binding if the command slides on it
+            if rate_i - b[i] <= BINDING_TOLERANCE and n_binding < codes.shape[0]:
+                codes[n_binding] = code[i]
+                n_binding += 1
+            continue
         if violation[i] > tolerance:
             relaxed_rows += 1
             if violation[i] > worst:
@@ -569,6 +622,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
             codes[n_binding + i] = motion_codes[i]
     out_f[offsets[13]] = worst
     out_f[offsets[14]] = motion_violation
+    out_f[offsets[15]] = brake_factor
     out_i[I_STATUS] = STATUS_DONE
     out_i[I_LEVEL] = level
     user_moves = speed > 0.0 and not (stopped or protective or force_stop)
@@ -580,7 +634,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     out_i[I_WORST] = worst_code
     out_i[I_MOTION_LIMITED] = int(n_motion > 0)
     out_i[I_MOTION_COUNT] = n_motion
-    out_i[I_SMOOTHNESS] = int(motion_violation > tolerance or net_scale < 1.0)
+    out_i[I_SMOOTHNESS] = int((level >= 1 and motion_violation > tolerance) or net_scale < 1.0)
     out_i[I_PROTECTIVE] = int(protective)
     state_f[0:nq] = q_next
     state_f[nq:nq + nv] = qdot_exec
