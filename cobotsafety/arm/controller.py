@@ -199,6 +199,14 @@ class ArmController:
         self._state_f[nq:] = 0.0
         self.state.refresh(self._out_f.copy(), self._offsets)
 
+    def set_configuration(self, q: np.ndarray) -> None:
+        """Put the arm at rest at ``q`` (shape (nq,)), e.g. a test's random state; the hold point,
+        the yield and the counters are kept."""
+        q = np.array(q, dtype=float).reshape(-1)
+        if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"q must be {self.model.nq} finite numbers, got {q}")
+        self._set_q(q)
+
     def reset(self) -> None:
         """Home pose at rest; hold, yield and the episode's counters cleared."""
         self._set_q(self.model.home_q)
