@@ -1,14 +1,20 @@
-"""The demo's control loop: a thread stepping a ``Teleoperated`` robot at a fixed rate.
+"""The demo's control loop: a thread stepping a ``Teleoperated`` robot at a fixed rate, and
+feeding it the human.
 
 Inputs (gizmo target, jog buttons, mode) arrive from browser callbacks at any rate; they only
-set fields under a lock. Each period the loop turns them into one desired velocity, guards it
-(NaN -> zero, speed cap, acceleration limit so nothing jumps), calls ``robot.step`` with the
-nominal period and publishes a snapshot. Rendering reads snapshots at its own rate.
+set fields under a lock. Each period the loop turns them into one desired velocity and calls
+``robot.step`` with the nominal period; the robot checks it (``ArmController`` refuses
+non-finite input, caps the speed, and keeps its own motion limits: no second cap here). The
+human comes through this thread too: every ``LoopSettings.human_period_s`` the loop advances the
+human source (a replay plays on with the loop's time) and hands the frame to
+``robot.set_human``, so a stalled renderer never leaves the controller with an old human; the
+snapshot carries that frame for the renderer to draw.
 
 Ticks are due on a fixed grid; a loop held up by a few milliseconds catches up with nominal
 steps, a loop further behind (or slower than its period) integrates the time that passed in one
 step of at most ``MAX_DT_S`` (``TickSchedule``). ``LoopStats`` keeps the periods, how late each
-tick started and the overruns.
+tick started and the overruns. A step that raises stops the loop (``ControlLoop.failure`` says
+why): a controller that failed once is not trusted to go on.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from cobotsafety.app.gizmo import GizmoSettings, offset_to_velocity
 from cobotsafety.app.realtime import request_fifo
 from cobotsafety.app.tick_schedule import TickSchedule
 from cobotsafety.errors import CobotSafetyError
+from cobotsafety.human.body import HumanCapsules
 from cobotsafety.teleoperated import METHODS, StepReport, Teleoperated
 
 logger = logging.getLogger(__name__)
@@ -40,10 +47,6 @@ class LoopSettings:
     rate_hz: float = 1000.0
     """Control rate [Hz] (1 kHz by default, 500 Hz an option); the robot is integrated with
     ``dt_s = 1 / rate_hz``."""
-    max_speed_m_s: float = 0.25
-    """Cap on the desired end-effector speed sent to the robot [m/s]."""
-    max_accel_m_s2: float = 2.0
-    """Cap on the change of the desired velocity [m/s^2] (rate limit: no jumps)."""
     jog_hold_s: float = 0.3
     """A jog press commands its velocity for this long, then zero [s]."""
     workspace_radius_m: float = 2.0
@@ -52,6 +55,9 @@ class LoopSettings:
     """A tick at most this late [s] still runs with the nominal period (the loop catches up on
     its schedule); later, the ticks missed are dropped and their time integrated in one step
     (``TickSchedule``)."""
+    human_period_s: float = 1.0 / 300.0
+    """How often the human source is read [s]: paper 2's IMUs come at ~300 Hz (its laser at
+    50 Hz); between reads the controller extrapolates the human with its velocity."""
     fifo_priority: int = 0
     """``SCHED_FIFO`` priority of the loop's thread (1-99), where the OS allows it; 0 (default)
     leaves the thread under the normal policy (``cobotsafety.app.realtime``). The demo asks
@@ -60,32 +66,6 @@ class LoopSettings:
     @property
     def dt_s(self) -> float:
         return 1.0 / self.rate_hz
-
-
-def guard_command(v_target_m_s: np.ndarray, v_previous_m_s: np.ndarray, dt_s: float,
-                  max_speed_m_s: float, max_accel_m_s2: float) -> np.ndarray:
-    """The velocity to send [m/s], shape of ``v_previous_m_s``; finite by construction.
-
-    Non-finite targets become zero; the speed is capped at ``max_speed_m_s``; the change from
-    ``v_previous_m_s`` is capped at ``max_accel_m_s2 * dt_s`` (norm). Runs every control tick on
-    2 or 3 numbers, so in plain floats (numpy's per-call overhead was most of its ~8 us).
-    """
-    v_previous = np.asarray(v_previous_m_s, dtype=float)
-    v_target = np.asarray(v_target_m_s, dtype=float)
-    previous = v_previous.ravel().tolist()
-    target = v_target.ravel().tolist() if v_target.shape == v_previous.shape else None
-    # hypot of finite numbers can still overflow: astronomically large is garbage too
-    speed = math.hypot(*target) if target is not None and all(map(math.isfinite, target)) else math.inf
-    if not math.isfinite(speed):
-        target, speed = [0.0] * len(previous), 0.0
-    if speed > max_speed_m_s:
-        target = [c * (max_speed_m_s / speed) for c in target]
-    change = [t - p for t, p in zip(target, previous)]
-    max_change = max_accel_m_s2 * dt_s
-    size = math.hypot(*change)
-    if size > max_change:
-        change = [c * (max_change / size) for c in change]
-    return np.array([p + c for p, c in zip(previous, change)]).reshape(v_previous.shape)
 
 
 class LoopStats:
@@ -149,11 +129,13 @@ class LoopSnapshot:
     p_base_ee_m: np.ndarray
     """Shape (3,) [m]."""
     v_sent_m_s: np.ndarray
-    """Shape (dim,), the guarded desired velocity given to ``robot.step`` [m/s]."""
+    """Shape (dim,), the desired velocity given to ``robot.step`` [m/s]."""
     dragging: bool
     stats: dict = field(default_factory=dict)
     """``rate_hz``: the loop rate over the last ``LoopStats`` window [Hz] (the full summary is
     ``ControlLoop.stats.summary()``)."""
+    human: HumanCapsules | None = None
+    """The human frame the controller was given last (None: no human source)."""
 
 
 class ControlLoop:
@@ -164,13 +146,16 @@ class ControlLoop:
     sleep: Callable[[float], None] = staticmethod(time.sleep)
 
     def __init__(self, robot: Teleoperated, settings: LoopSettings = LoopSettings(),
-                 gizmo: GizmoSettings = GizmoSettings()):
+                 gizmo: GizmoSettings = GizmoSettings(), human_source=None):
         self.settings = settings
         self.gizmo = gizmo
         self.lock = threading.RLock()
         self.stats = LoopStats()
-        self.before_step: list[Callable[[float], None]] = []
-        """Called with the simulated time [s] under the lock before each step (e.g. replay)."""
+        self.human_source = human_source
+        """Anything with ``advance(dt_s)`` (move its clock on) and ``capsules() -> HumanCapsules
+        | None`` (the human now), e.g. ``ReplayControl``; None: no human."""
+        self.failure = ""
+        """Why the loop stopped ("" while it runs or was stopped on purpose)."""
         self._robot = robot
         self._method = "anticipative"
         self._thread: threading.Thread | None = None
@@ -188,6 +173,8 @@ class ControlLoop:
         self._t_s = 0.0
         self._steps = 0
         self._report: StepReport | None = None
+        self._human: HumanCapsules | None = None
+        self._human_due_s = 0.0
 
     # ---- inputs (any thread) -------------------------------------------------------------
     @property
@@ -265,14 +252,24 @@ class ControlLoop:
             return self._jog_m_s
         return np.zeros(dim)
 
+    def _feed_human(self, dt_s: float) -> None:
+        """Move the human source on by ``dt_s`` and, when a read is due, give the robot the human."""
+        source = self.human_source
+        if source is None or not hasattr(self._robot, "set_human"):
+            return
+        source.advance(dt_s)
+        if self._t_s + 1e-12 < self._human_due_s:
+            return
+        self._human_due_s = self._t_s + self.settings.human_period_s
+        self._human = source.capsules()
+        self._robot.set_human(self._human)
+
     def step_once(self, dt_s: float | None = None) -> StepReport:
         """One control period of ``dt_s`` [s] (default: the nominal ``settings.dt_s``)."""
-        s = self.settings
-        dt_s = s.dt_s if dt_s is None else float(dt_s)
+        dt_s = self.settings.dt_s if dt_s is None else float(dt_s)
         with self.lock:
-            for hook in self.before_step:
-                hook(self._t_s)
-            v = guard_command(self.desired_velocity(), self._v_sent, dt_s, s.max_speed_m_s, s.max_accel_m_s2)
+            self._feed_human(dt_s)
+            v = self.desired_velocity()
             report = self._robot.step(v, dt_s, self._method)
             self._v_sent = v
             self._report = report
@@ -283,8 +280,8 @@ class ControlLoop:
     def snapshot(self) -> LoopSnapshot:
         with self.lock:
             return LoopSnapshot(self._t_s, self._steps, self._method, self._report,
-                                np.array(self._robot.p_base_ee_m, dtype=float), self._v_sent.copy(),
-                                self._gizmo_target_m is not None, {"rate_hz": self.stats.rate_hz})
+                                np.array(self._robot.p_base_ee_m, dtype=float), np.array(self._v_sent, dtype=float),
+                                self._gizmo_target_m is not None, {"rate_hz": self.stats.rate_hz}, self._human)
 
     # ---- thread ------------------------------------------------------------------------
     def start(self) -> None:
@@ -324,11 +321,13 @@ class ControlLoop:
             last = now
             try:
                 self.step_once(tick.dt_s)
-            except Exception:  # noqa: BLE001 - the loop must survive a bad step; robot holds still
-                logger.exception("control step failed; commanding zero")
+            except Exception as error:  # noqa: BLE001 - a failed controller is not stepped again
+                logger.exception("control step failed: the control loop stops")
                 with self.lock:
-                    self._v_sent = np.zeros(self._robot.dim)
                     self._gizmo_target_m = None
+                    self.failure = f"control step failed: {error}"
+                self._stop.set()
+                break
             delay_s = schedule.finish(clock())
             if delay_s > 0.0:
                 sleep(delay_s)

@@ -85,10 +85,10 @@ FIG9_ARRIVED_M = 0.005
 
 
 def supported_robots() -> tuple[str, ...]:
-    """``planar`` plus the arm names of ``cobotsafety.arm`` once its ``ArmTeleop`` exists."""
+    """``planar`` plus the arm names of ``cobotsafety.arm``."""
     try:
         from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415
-        from cobotsafety.arm.teleop import ArmTeleop  # noqa: F401, PLC0415 - the 3D scene needs it
+        from cobotsafety.arm.controller import ArmController  # noqa: F401, PLC0415 - the 3D scene needs it
     except ImportError:
         return (PLANAR,)
     return (PLANAR, *(name for name in ROBOTS if name != PLANAR))
@@ -113,7 +113,8 @@ class DemoApp:
         self.server.gui.configure_theme(control_width="large")
         self.scene = make_scene(self.server, robot_name)
         self._planar_label = PLANAR_SCENES[0]
-        self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY))
+        self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY),
+                                human_source=self.replay if self.scene.dim == 3 else None)
         self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
                                 self.loop.gizmo, ssm_available=self.scene.dim == 3)
         self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
@@ -316,6 +317,7 @@ class DemoApp:
             finally:
                 with self.loop.lock:
                     self.loop.replace_robot(scene.robot)
+                    self.loop.human_source = self.replay if scene.dim == 3 else None
                     self.scene = scene
                 self.gizmo = self._make_gizmo()
                 self.zones.carry_over()
@@ -365,18 +367,13 @@ class DemoApp:
             self.loop.release_gizmo()
 
     # ---- render loop --------------------------------------------------------------------
-    def display_distance(self, capsules, human) -> tuple[float, np.ndarray, np.ndarray] | None:
-        """The robot-human closest pair shown everywhere (3D only; the planar arm has no human).
-
-        Robot capsules skip the ones the human constraint skips (the fixed base), so the value
-        is the controller's separation, not a second definition.
-        """
-        if human is None or self.scene.dim != 3:
+    @staticmethod
+    def closest_pair(report) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """The robot-human minimum distance [m] and its witness points on the two surfaces, as
+        the controller measured them this step (``StepReport``); None without a human."""
+        if report is None or report.min_distance_m is None or report.p_robot_closest_m is None:
             return None
-        p0, p1, radius = capsules
-        skip = int(getattr(getattr(getattr(self.loop.robot, "arm", None), "human", None), "skip_capsules", 1))
-        skip = min(skip, max(len(radius) - 1, 0))
-        return minimum_distance(p0[skip:], p1[skip:], radius[skip:], human)
+        return report.min_distance_m, report.p_robot_closest_m, report.p_human_closest_m
 
     def render_once(self, wall_dt_s: float = 0.0) -> None:
         self.frames += 1
@@ -385,16 +382,13 @@ class DemoApp:
             scene = self.scene
             snapshot = self.loop.snapshot()
             data = self.loop.read(scene.read)
-            self.replay.advance(wall_dt_s)
-            human = self.replay.capsules() if scene.dim == 3 else None
-            # The replayed human drives the arm's human constraint at the render rate; between
-            # frames the constraint extrapolates with the estimated human velocity.
-            if human is not None:
-                self.loop.read(lambda robot: robot.set_human(human) if hasattr(robot, "set_human") else None)
+            # The human and its distance as the controller had them this step (the control loop
+            # feeds the replay to it; rendering only draws).
+            human = snapshot.human if scene.dim == 3 else None
             self._follow_scripted_pull(snapshot)
             with self.server.atomic():
-                capsules = scene.render(snapshot, data)
-                closest = self.display_distance(capsules, human)
+                scene.render(snapshot, data)
+                closest = self.closest_pair(snapshot.report) if human is not None else None
                 self.human.update(human, closest, refresh_text=status_frame)
                 if self._dragging_client is None:  # nobody holds it: the gizmo rides with the end-effector
                     if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
@@ -414,6 +408,12 @@ class DemoApp:
                                contradictions=report.contradictions if report is not None else 0)
             if human is not None and human.stale:
                 text += f"  \n**sensor stale**: {human.reason}"
+            if report is not None and report.human_status:
+                text += f"  \n**careful**: {report.human_status}"
+            if report is not None and report.motion_limited:
+                text += "  \nlimited by the robot's acceleration: " + ", ".join(report.motion_limited)
+            if self.loop.failure:
+                text += f"  \n**control stopped**: {self.loop.failure}"
             if text != self.panel.status.content:
                 self.panel.status.content = text
             if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere

@@ -21,7 +21,7 @@ import viser
 
 from cobotsafety.app import draw
 from cobotsafety.app.control_loop import LoopSnapshot
-from cobotsafety.arm.zones import BoxZone, CapsuleZone, HalfSpaceZone
+from cobotsafety.arm.limitations import BoxZone, CapsuleZone, HalfSpaceZone, SphereZone
 
 ROOT = "/arm"
 CAPSULE_COLOUR = (90, 140, 230)
@@ -192,6 +192,10 @@ class ArmView:
             if isinstance(zone, BoxZone):
                 node = scene.add_box(name, ZONE_COLOUR, dimensions=2 * np.asarray(zone.half_size), opacity=0.35,
                                      position=zone.center)
+            elif isinstance(zone, SphereZone):
+                mesh = draw.capsule_mesh(0.0, zone.radius_m)
+                node = scene.add_mesh_simple(name, *_mesh_arrays(mesh), color=ZONE_COLOUR, opacity=0.35,
+                                             position=zone.center)
             elif isinstance(zone, CapsuleZone):
                 axis = np.asarray(zone.p1) - np.asarray(zone.p0)
                 mesh = draw.capsule_mesh(float(np.linalg.norm(axis)), zone.radius_m)

@@ -61,13 +61,13 @@ class ArmScene:
 
     def __init__(self, server: viser.ViserServer, robot_name: str | None = None):
         from cobotsafety.app.scene_arm import ArmView  # noqa: PLC0415
+        from cobotsafety.arm.controller import ArmController  # noqa: PLC0415
         from cobotsafety.arm.robots import DEFAULT_ROBOT  # noqa: PLC0415
-        from cobotsafety.control.human_aware import HumanAwareTeleop  # noqa: PLC0415
 
         self.name = robot_name or DEFAULT_ROBOT
-        # The human capsules of the replay are moving protection zones here (issue 5): the
-        # render loop hands each frame to ``robot.set_human``.
-        self.robot = HumanAwareTeleop(self.name)  # raises UnknownRobotError listing the known names
+        # The human capsules of the replay are a moving protection zone: the control loop polls
+        # the human source and hands each frame to ``robot.set_human``.
+        self.robot = ArmController(self.name)  # raises UnknownRobotError listing the known names
         self.view = ArmView(server, self.robot)
 
     def read(self, robot) -> dict:
@@ -84,7 +84,7 @@ class ArmScene:
 
     @staticmethod
     def make_zone(name: str, shape: str, p_m: tuple[float, float, float], size_m: float):
-        from cobotsafety.arm.zones import BoxZone, SphereZone  # noqa: PLC0415
+        from cobotsafety.arm.limitations import BoxZone, SphereZone  # noqa: PLC0415
 
         if shape == "box":
             return BoxZone(name, tuple(p_m), (size_m, size_m, size_m))

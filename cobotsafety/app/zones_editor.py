@@ -40,7 +40,7 @@ def zone_geometry(zone) -> tuple[str, np.ndarray, np.ndarray] | None:
 
     Editable: planar rectangles and off-origin keep-out circles, 3D boxes and spheres.
     """
-    from cobotsafety.arm.zones import BoxZone, SphereZone  # noqa: PLC0415
+    from cobotsafety.arm.limitations import BoxZone, SphereZone  # noqa: PLC0415
 
     if isinstance(zone, RectangleZone):
         return "box", np.array([*zone.center_m, 0.0]), np.array([*zone.half_size_m, np.inf])

@@ -23,6 +23,9 @@ class RobotState:
         self.spec = model.spec
         self.capsules = model.capsules
         self.capsule_radius = np.array([c.radius_m for c in model.capsules], dtype=float)
+        self.capsule_p0_local = np.array([c.p0_joint for c in model.capsules], dtype=float).reshape(-1, 3)
+        self.capsule_p1_local = np.array([c.p1_joint for c in model.capsules], dtype=float).reshape(-1, 3)
+        """Shape (c, 3): the capsules' end points in their joint's frame [m]."""
         self.capsule_joint_ids = [int(model.model.getJointId(c.joint)) for c in model.capsules]
         self.lower, self.upper = model.lower, model.upper
         self.limited_names = model.limited_names
