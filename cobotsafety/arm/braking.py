@@ -109,19 +109,35 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
         return np.nan
     lo = max(accel - jerk * dt_s, -decel)
     s_lo = speed + lo * dt_s
-    if stop_distance(s_lo, lo, decel, jerk, dt_s) > gap - s_lo * dt_s:
+    f_lo = stop_distance(s_lo, lo, decel, jerk, dt_s) + s_lo * dt_s - gap
+    if f_lo > 0.0:
         return np.nan
     s_hi = max(speed_cap, s_lo)
     a_hi = min(max((s_hi - speed) / dt_s, -decel), decel)
-    if stop_distance(s_hi, a_hi, decel, jerk, dt_s) <= gap - s_hi * dt_s:
+    f_hi = stop_distance(s_hi, a_hi, decel, jerk, dt_s) + s_hi * dt_s - gap
+    if f_hi <= 0.0:
         return np.inf
-    for _ in range(48):
-        s_mid = 0.5 * (s_lo + s_hi)
+    # f(s) = stop_distance(s, a(s)) + s dt - gap increases with s: its root by regula falsi
+    # (Illinois), the bracket's feasible end returned.
+    side = 0
+    for _ in range(60):
+        s_mid = s_lo - f_lo * (s_hi - s_lo) / (f_hi - f_lo)
+        if not s_lo < s_mid < s_hi:
+            s_mid = 0.5 * (s_lo + s_hi)
         a_mid = min(max((s_mid - speed) / dt_s, -decel), decel)
-        if stop_distance(s_mid, a_mid, decel, jerk, dt_s) <= gap - s_mid * dt_s:
-            s_lo = s_mid
+        f_mid = stop_distance(s_mid, a_mid, decel, jerk, dt_s) + s_mid * dt_s - gap
+        if f_mid <= 0.0:
+            s_lo, f_lo = s_mid, f_mid
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
         else:
-            s_hi = s_mid
+            s_hi, f_hi = s_mid, f_mid
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        if s_hi - s_lo <= 1e-12 * max(1.0, abs(s_lo)) or f_lo == 0.0:
+            break
     return s_lo
 
 

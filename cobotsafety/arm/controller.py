@@ -50,9 +50,10 @@ from cobotsafety.arm.limitations.registry import pack_scene
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step_kernel import (I_BINDING, I_LEVEL, I_MOTION_COUNT, I_PROTECTIVE, I_RELAXED, I_SMOOTHNESS,
-                                         I_STOPPED, I_WORST, OUT_I_HEADER, OWNER_EE_MOTION, OWNER_MOTION, OWNER_SPEED,
-                                         OWNER_VELOCITY, STATUS_DONE, STRATEGIES, arm_step, decode_row, output_layout)
+from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, OUT_I_HEADER, OWNER_EE_MOTION,
+                                         OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY, STATUS_DONE, STRATEGIES, arm_step,
+                                         decode_row, output_layout)
+from cobotsafety.arm.step_report import ArmStepReport
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.human.body import HumanCapsules
 from cobotsafety.teleoperated import METHODS, StepReport
@@ -70,6 +71,10 @@ YIELD_DWELL_S = 0.3
 #: periods up to 10 ms). Longer than ``MAX_PERIOD_S`` [s]: refused.
 MAX_STEP_S = 0.010
 MAX_PERIOD_S = 1.0
+_STRATEGY_CODES = {name: code for code, name in enumerate(STRATEGIES)}
+_ANTICIPATIVE, _OFF = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"]
+_FLOAT = np.dtype(float)
+_ZERO3 = np.zeros(3)
 _LEVEL_REASONS = {1: "safety over smoothness: the motion limits gave way", 2: "retreats contradict",
                   3: "limits contradict: approaching nothing", 4: "limits contradict: stopped"}
 
@@ -160,14 +165,14 @@ class ArmController:
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
         self._offsets = output_layout(nq, nv, c)
         self._state_f = np.zeros(nq + 2 * nv + 6)
-        self._command_f = np.zeros(16)
-        self._command_i = np.zeros(4, dtype=np.int64)
+        self._reference_f = np.zeros(10)
         self._settings_f = self.settings.vector()
-        self._out_f = np.zeros(int(self._offsets[-1]))
-        self._out_i = np.zeros(OUT_I_HEADER + 1024, dtype=np.int64)
+        self._out_size = int(self._offsets[-1])
+        self._out_i_size = OUT_I_HEADER + 1024
         self.state = RobotState(self.model)
         self._set_q(self.model.home_q)
         self.R_world_ee_ref = self.state.R_world_ee.copy()
+        self._reference_f[:9] = self.R_world_ee_ref.ravel()
         self.reach = reach_limits(self.state) if reach else None
         self.table = TablePlane(0.0) if table else None
         self.zones = zones if zones is not None else default_zones(self.state.p_world_ee)
@@ -181,6 +186,7 @@ class ArmController:
         self.clock_s = 0.0
         """Time stepped since the start [s] (the watchdog's and the yield's clock)."""
         self.reset()
+        assert set(STRATEGIES) == set(METHODS), "the kernel's strategies are the Teleoperated methods"
 
     # ---- state ------------------------------------------------------------------------------
     def _set_q(self, q: np.ndarray) -> None:
@@ -188,16 +194,15 @@ class ArmController:
         nq = self.model.nq
         self._state_f[:] = 0.0
         self._state_f[:nq] = q
-        self._command_f[:] = 0.0
-        self._command_f[3] = 1e-3
-        self._command_f[4:13] = np.eye(3).ravel()
-        self._command_i[:] = (3, 0, 0, 1)  # off, no orientation, no SSM, forced stop: stays put
-        empty_i = np.zeros((0, 2), dtype=np.int64)
-        arm_step(self._state_f, self._command_f, self._command_i, self.model.robot_i, self.model.robot_f, empty_i,
-                 np.zeros((0, 12)), np.zeros(0), self._settings_f, self._out_f, self._out_i)
+        self._reference_f[9] = self.settings.max_speed_m_s
+        out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
+        # Off, braking to a stop from rest: the arm stays put and the step computes its kinematics.
+        arm_step(self._state_f, np.zeros(3), 1e-3, _OFF, FLAG_STOP, 0.0, self._reference_f, self.model.robot_i,
+                 self.model.robot_f, np.zeros((0, 2), dtype=np.int64), np.zeros((0, 12)), np.zeros(0),
+                 self._settings_f, out_f, out_i)
         self._state_f[:nq] = q
         self._state_f[nq:] = 0.0
-        self.state.refresh(self._out_f.copy(), self._offsets)
+        self.state.refresh(out_f, self._offsets)
 
     def set_configuration(self, q: np.ndarray) -> None:
         """Put the arm at rest at ``q`` (shape (nq,)), e.g. a test's random state; the hold point,
@@ -228,7 +233,9 @@ class ArmController:
         return found + list(self.zones) + [self.human]
 
     def _scene(self):
-        key = (tuple(map(id, self.zones)), tuple(self.zones), self.reach, self.table, self.human)
+        """The packed scene, packed again when a zone is added, replaced (zones are frozen: a
+        change is a new object) or removed, or the reach, table or human limitation replaced."""
+        key = (*map(id, self.zones), id(self.reach), id(self.table), id(self.human))
         if key != self._pack_key:
             self._pack = pack_scene(self.limitations, self.model)
             self._pack_key = key
@@ -267,28 +274,35 @@ class ArmController:
         return self.clock_s - self._human_given_s + self._human_age_s
 
     # ---- Teleoperated -------------------------------------------------------------------------
-    def step(self, v_desired_m_s, dt_s: float, method: str = "anticipative") -> StepReport:
+    def step(self, v_desired_m_s, dt_s: float, method: str = "anticipative") -> ArmStepReport:
         """Filter ``v_desired_m_s`` (shape (3,)) [m/s] with ``method``, integrate over ``dt_s``
         [s], report. See the module docstring for bad input."""
-        if method not in METHODS:
+        strategy = _STRATEGY_CODES.get(method)
+        if strategy is None:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        v = np.asarray(v_desired_m_s, dtype=float).reshape(-1)
-        if v.shape != (3,):
-            raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
+        v = v_desired_m_s
+        if not (type(v) is np.ndarray and v.shape == (3,) and v.dtype == _FLOAT):
+            v = np.asarray(v_desired_m_s, dtype=float).reshape(-1)
+            if v.shape != (3,):
+                raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
         reason = ""
-        if not (isinstance(dt_s, (int, float)) and math.isfinite(dt_s) and dt_s > 0.0):
+        if not (type(dt_s) in (float, int) or isinstance(dt_s, (float, int, np.floating))) or not math.isfinite(dt_s) \
+                or dt_s <= 0.0:
             logger.warning("step period %r is not a finite positive number: holding", dt_s)
             return self._hold_report(v, f"period {dt_s!r} s refused: holding")
-        if not all(math.isfinite(x) for x in v.tolist()):
+        x, y, z = v.tolist()
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
             logger.warning("desired velocity %s is not finite: commanding zero", v)
             v, reason = np.zeros(3), "desired velocity not finite: commanding zero"
+            x = y = z = 0.0
+        if dt_s <= MAX_STEP_S:
+            return self._step_once(v, x != 0.0 or y != 0.0 or z != 0.0, float(dt_s), strategy, reason)
         if dt_s > MAX_PERIOD_S:
             raise StepError(f"a step of {dt_s} s is longer than {MAX_PERIOD_S} s: refused (the arm would be "
                             "integrated over a jump)")
-        pieces = max(1, math.ceil(dt_s / MAX_STEP_S - 1e-9))
-        report = None
+        pieces = math.ceil(dt_s / MAX_STEP_S - 1e-9)
         for _ in range(pieces):
-            report = self._step_once(v, dt_s / pieces, method, reason)
+            report = self._step_once(v, x != 0.0 or y != 0.0 or z != 0.0, dt_s / pieces, strategy, reason)
         return report
 
     def _hold_report(self, v: np.ndarray, reason: str) -> StepReport:
@@ -298,10 +312,10 @@ class ArmController:
                           contradictions=self.contradictions,
                           safety_over_smoothness_steps=self.smoothness_steps)
 
-    def _command(self, v: np.ndarray, method: str) -> np.ndarray:
+    def _command(self, v: np.ndarray, moving: bool, strategy: int) -> np.ndarray:
         """The user's command, or (released: zero, and not ``off``) the attraction back to the
         held point."""
-        if method == "off" or any(x != 0.0 for x in v.tolist()):
+        if moving or strategy == _OFF:
             self.p_hold_m = None
             return v
         p = self.state.p_world_ee
@@ -315,12 +329,13 @@ class ArmController:
 
     def _human_now(self) -> tuple[np.ndarray, str, bool]:
         """The human buffer grown for its age, the watchdog's words, and whether it stops the arm."""
+        if not math.isfinite(self._human_given_s):
+            return self._human_f, "", False
+        age = self.clock_s - self._human_given_s + self._human_age_s
         if not self._human.present:
-            age = self.human_age_s()
-            if math.isfinite(self._human_given_s) and age > self.watchdog.stop_after_s and self._human.stale:
+            if age > self.watchdog.stop_after_s and self._human.stale:
                 return self._human_f, f"human sensors silent for {age:.2f} s: stopped", True
             return self._human_f, "", False
-        age = self.human_age_s()
         excess = age - self.watchdog.grow_after_s
         if excess <= 0.0:
             return self._human_f, "", False
@@ -331,72 +346,54 @@ class ArmController:
             return grown, f"human model {age:.2f} s old: stopped", True
         return grown, f"human model {age:.2f} s old: grown by {self.watchdog.growth_speed_m_s * excess:.2f} m", False
 
-    def _step_once(self, v_user: np.ndarray, dt_s: float, method: str, reason: str) -> StepReport:
-        pack = self._scene()
-        v = self._command(v_user, method)
-        yielding = method == "anticipative" and self.clock_s < self.yield_until_s
+    def _step_once(self, v_user: np.ndarray, moving: bool, dt_s: float, strategy: int, reason: str) -> ArmStepReport:
+        self._scene()
+        v = self._command(v_user, moving, strategy)
+        yielding = strategy == _ANTICIPATIVE and self.clock_s < self.yield_until_s
         human_f, human_status, watchdog_stop = self._human_now()
-        command_f = self._command_f
-        command_f[0:3] = 0.0 if yielding else v
-        command_f[3] = dt_s
-        command_f[4:13] = self.R_world_ee_ref.ravel()
-        command_f[13] = max(0.0, self.clock_s - self._human_given_s) if self._human.present else 0.0
-        command_f[14] = self.settings.max_speed_m_s
-        self._command_i[:] = (STRATEGIES.index(method), 1, int(self.ssm), int(watchdog_stop))
-        out_f, out_i = np.empty_like(self._out_f), self._out_i
+        flags = FLAG_ORIENTATION | (FLAG_SSM if self.ssm else 0) | (FLAG_STOP if watchdog_stop else 0)
+        ahead = self.clock_s - self._human_given_s if self._human.present else 0.0
+        out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.p_world_ee
-        status = arm_step(self._state_f, command_f, self._command_i, self.model.robot_i, self.model.robot_f,
-                          self._scene_i, self._scene_f, human_f, self._settings_f, out_f, out_i)
+        status = arm_step(self._state_f, _ZERO3 if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
+                          self.model.robot_i, self.model.robot_f, self._scene_i, self._scene_f, human_f,
+                          self._settings_f, out_f, out_i)
         if status != STATUS_DONE:
             raise CobotSafetyError(f"the compiled step refused the scene (status {status})")
         self.clock_s += dt_s
         self.state.refresh(out_f, self._offsets)
-        o = self._offsets
-        n_binding, n_motion = int(out_i[I_BINDING]), int(out_i[I_MOTION_COUNT])
-        codes = out_i[OUT_I_HEADER:OUT_I_HEADER + n_binding + n_motion].tolist()
-        binding = tuple(dict.fromkeys(self._name(code) for code in codes[:n_binding]))
-        motion_limited = tuple(dict.fromkeys(self._name(code) for code in codes[n_binding:]))
-        stopped = bool(out_i[I_STOPPED])
-        level = int(out_i[I_LEVEL])
-        relaxed = level in (2, 3) and out_i[I_RELAXED] > 0
+        _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
+        stopped = stopped != 0
+        relaxed = level in (2, 3) and relaxed_rows > 0
         if level:
-            worst = int(out_i[I_WORST])
-            detail = f" ({int(out_i[I_RELAXED])} row(s), at most {out_f[o[13]]:.3g} m/s: {self._name(worst)})" \
-                if worst >= 0 else ""
+            detail = (f" ({relaxed_rows} row(s), at most {out_f[self._offsets[13]]:.3g} m/s: {self._name(worst)})"
+                      if relaxed_rows and worst >= 0 else "")
             reason = reason or _LEVEL_REASONS[level] + detail
-        if out_i[I_PROTECTIVE]:
+        if protective:
             reason = reason or "SSM protective stop: the human is within the protective separation distance"
         if watchdog_stop:
             reason = reason or human_status
         if relaxed:
             self.contradictions += 1
-            if self.contradictions == 1:  # once per episode; the count is in every StepReport
+            if self.contradictions == 1:  # once per episode; the count is in every report
                 logger.warning("%s (further contradictions this episode are counted, not logged)", reason)
-        smoothness = bool(out_i[I_SMOOTHNESS])
-        self.smoothness_steps += smoothness
-        v_commanded = out_f[o[7]:o[8]]
-        if method == "anticipative":
-            blocked = relaxed and math.sqrt(float(v_commanded @ v_commanded)) < 1e-3
-            if blocked:
-                self.yield_until_s = self.clock_s + YIELD_DWELL_S
-            if blocked or yielding:
+        if smoothness:
+            self.smoothness_steps += 1
+        if strategy == _ANTICIPATIVE:
+            if relaxed:
+                o = self._offsets[7]
+                commanded = out_f[o:o + 3].tolist()
+                if math.sqrt(commanded[0] ** 2 + commanded[1] ** 2 + commanded[2] ** 2) < 1e-3:
+                    self.yield_until_s = self.clock_s + YIELD_DWELL_S
+                    yielding = True
+            if yielding:
                 stopped, reason = True, "yielding: " + (reason or "the retreats contradicted each other")
-        if stopped and not reason and binding:
-            reason = "blocked by " + ", ".join(binding)
         if self.p_hold_m is not None:  # released: the return is ours, not a command refused
             stopped = False
-        distance = float(out_f[o[9]])
-        report = StepReport(
-            v_desired_m_s=v_user, v_commanded_m_s=v_commanded, v_executed_m_s=out_f[o[8]:o[9]],
-            p_base_ee_m=self.state.p_world_ee, binding=binding, stopped=stopped,
-            min_distance_m=distance if math.isfinite(distance) else None,
-            extras={"net_scale": float(out_f[o[12]]), "qdot": out_f[o[1]:o[2]], "level": level,
-                    "p_before_m": before, "brake_factor": float(out_f[o[15]])},
-            reason=reason, contradictions=self.contradictions,
-            p_robot_closest_m=out_f[o[10]:o[11]] if math.isfinite(distance) else None,
-            p_human_closest_m=out_f[o[11]:o[12]] if math.isfinite(distance) else None,
-            motion_limited=motion_limited, safety_over_smoothness=smoothness,
-            safety_over_smoothness_steps=self.smoothness_steps, human_status=human_status)
+        report = ArmStepReport(out_f, out_i, self._offsets, self._name, v_user, stopped, reason, self.contradictions,
+                               smoothness != 0, self.smoothness_steps, human_status, before)
+        if stopped and not reason and report.binding:
+            report.reason = "blocked by " + ", ".join(report.binding)
         self.last_report = report
         return report
 

@@ -42,6 +42,7 @@ import numba
 import numpy as np
 
 from cobotsafety.least_distance import RELAX_DONE, RELAXATION_COMMAND_WEIGHT, relax_kernel
+from cobotsafety.small_linalg import matvec
 
 LIMITATION, VELOCITY, MOTION, PLAN = 0, 1, 2, 3
 #: How the filter ended: within the motion limits; motion limits given up for safety; retreats
@@ -57,7 +58,7 @@ BINDING_TOLERANCE = 1e-9
 def _relax(q0, B, G, h, soft, floors):  # pragma: no cover - compiled
     """``relax_kernel`` on the z-space rows: ``(qdot, violation, done)``."""
     z, violation, status, _, _ = relax_kernel(np.zeros(G.shape[1]), G, h, soft, floors, RELAXATION_COMMAND_WEIGHT)
-    return q0 + B @ z, violation, status == RELAX_DONE
+    return q0 + matvec(B, z), violation, status == RELAX_DONE
 
 
 @numba.njit(cache=True)
@@ -133,7 +134,7 @@ def filter_rows(q0, B, N, b, group, count, J, speed_cap):  # pragma: no cover - 
     for _ in range(SPEED_CUTS):
         if level == LEVEL_STOPPED:
             break
-        ee = J @ qdot
+        ee = matvec(J, qdot)
         speed = np.sqrt(np.sum(ee * ee))
         if speed <= speed_cap * (1.0 + 1e-9):
             break

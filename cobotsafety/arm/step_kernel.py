@@ -6,9 +6,10 @@ buffers grouped by role:
 
 * ``state_f``: ``q`` (nq), the previous step's joint velocity (nv) and acceleration (nv), the
   end-effector's previous velocity (3) and acceleration (3). Updated in place.
-* ``command_f``: the desired end-effector velocity ``v`` (3) [m/s], ``dt`` [s], the reference
-  orientation ``R_ref`` (9, row-major), how far ahead of its frame the human is extrapolated
-  [s], the speed cap [m/s]; ``command_i``: strategy, orientation hold, SSM, forced stop.
+* the command: the desired end-effector velocity ``v`` (3) [m/s], the period ``dt_s`` [s], the
+  strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM, forced stop), how far
+  ahead of its frame the human is extrapolated [s], and ``reference_f``: the reference
+  orientation (9, row-major) and the speed cap [m/s].
 * ``robot_i``, ``robot_f``: the robot (``robot_model.robot_buffers``).
 * ``scene_i`` (n, 2): each limitation's kind and skipped capsules; ``scene_f`` (n, 12): its
   numbers (``limitations.registry.pack_scene``).
@@ -52,9 +53,12 @@ from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
 from cobotsafety.geometry.capsule import capsule_pair
+from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
 STRATEGIES = ("anticipative", "stop", "reactive", "off")
+#: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM; brake to a stop.
+FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP = 1, 2, 4
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop; then the binding rows' codes,
 #: then the motion-limited rows' codes.
@@ -142,16 +146,17 @@ def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, s
     nj = jtype.shape[0]
     oR, op = np.empty((nj, 3, 3)), np.empty((nj, 3))
     forward_kinematics(q, jtype, axes, parent, idx_q, placement_R, placement_t, oR, op)
-    R_ee = oR[ee_joint] @ ee_R
-    p_ee = op[ee_joint] + oR[ee_joint] @ ee_t
+    R_ee = matmul(oR[ee_joint], ee_R)
+    p_ee = op[ee_joint] + matvec(oR[ee_joint], ee_t)
     J6 = np.empty((6, nv))
     frame_jacobian(p_ee, ee_joint, oR, op, axes, idx_v, support, J6)
     c = cap_joint.shape[0]
     p0, p1 = np.empty((c, 3)), np.empty((c, 3))
     for k in range(c):
         j = cap_joint[k]
-        p0[k] = op[j] + oR[j] @ cap_p0l[k]
-        p1[k] = op[j] + oR[j] @ cap_p1l[k]
+        for r in range(3):
+            p0[k, r] = op[j, r] + oR[j, r, 0] * cap_p0l[k, 0] + oR[j, r, 1] * cap_p0l[k, 1] + oR[j, r, 2] * cap_p0l[k, 2]
+            p1[k, r] = op[j, r] + oR[j, r, 0] * cap_p1l[k, 0] + oR[j, r, 1] * cap_p1l[k, 1] + oR[j, r, 2] * cap_p1l[k, 2]
     return oR, op, p_ee, R_ee, J6, p0, p1
 
 
@@ -204,77 +209,81 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 @numba.njit(cache=True)
 def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel,
                       ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
-                      speed_cap, ssm, ssm_params, bounds, keep):  # pragma: no cover - compiled
-    """Each row's bound ``b`` of ``a . qdot >= b`` into ``bounds``; ``keep`` False for rows no
-    velocity within the joints' limits can break. ``brake_share``: the share of the motion
-    limits the braking may use (the filter's plan: ``FilterSettings.brake_share``; its safety
-    bound: 1, and no damped zone: width 0).
+                      speed_cap, ssm, ssm_params, plan, keep_plan, safety, keep_safety):  # pragma: no cover - compiled
+    """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
+    limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
+    motion limits) into ``safety``; ``keep_*`` False for rows no velocity within the joints'
+    limits can break. Returns the largest factor by which a safety bound had to exceed the
+    motion limits (1: none).
 
     Outside the buffer: approach no faster than the arm can brake before the limitation from
     its approach speed and acceleration now (``braking.safe_speed``: beyond reach, with the least
-    excess over the motion limits that still stops before it) at what the joints can give along
-    the row (``brake_share`` of their limits, at most the end-effector's for metric rows);
-    paper 1's damped zone when a width is set. Inside it: drift out at ``recovery_gain`` times
-    the intrusion (never deeper). A human's own approach (``rate`` < 0) is added; with SSM the
-    arm's own approach to a human (rows with a finite ``separation`` [m], the capsules'
-    distance) is also at most ISO/TS 15066's speed for that separation. A retreat never asks
-    for more than the speed cap. Returns the largest factor by which a bound had to exceed the
-    motion limits (1: none)."""
+    excess over the motion limits that still stops before it), with what the joints can give
+    along the row (at most the end-effector's limits for metric rows). The plan brakes as part
+    of the whole arm's stop (every joint's velocity scaled down together, as fast as the
+    bottleneck joint allows), so that budgets of rows binding at once are met by one braking;
+    a moving human's rows keep the capacity along their own normal (a retreat is not a stop).
+    Inside the buffer: drift out at ``recovery_gain`` times the intrusion (never deeper). A
+    human's own approach (``rate`` < 0) is added; with SSM the arm's own approach to a human
+    (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
+    15066's speed for that separation. A retreat never asks for more than the speed cap."""
     nv = A.shape[1]
     worst_factor = 1.0
-    # The whole arm's stop: every joint's velocity scaled down together, as fast as the
-    # bottleneck joint allows (per unit of the scale: 1/s^2, 1/s^3). Budgets taken from it are
-    # met by one and the same braking of the arm, whichever rows bind at once.
     stop_decel, stop_jerk = np.inf, np.inf
     for j in range(nv):
         if abs(qdot_prev[j]) > 1e-9:
             stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
             stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
     for i in range(count):
-        decel, jerk_n, reach, own_speed = 0.0, 0.0, 0.0, 0.0
+        decel, jerk_n, reach, own_speed, own_accel = 0.0, 0.0, 0.0, 0.0, 0.0
         for j in range(nv):
             w = abs(A[i, j])
             decel += w * acc[j]
             jerk_n += w * jerk[j]
             reach += w * vel[j]
             own_speed -= A[i, j] * qdot_prev[j]
+            own_accel -= A[i, j] * qddot_prev[j]
         if not angular[i]:
             decel = min(decel, ee_acc)
             jerk_n = min(jerk_n, ee_jerk)
-        if brake_share < 1.0 and rate[i] == 0.0 and own_speed > 0.0:
-            # The plan brakes as part of the arm's stop (a moving human needs a retreat: its
-            # rows keep the capacity along their own normal).
-            decel = min(decel, own_speed * stop_decel)
-            jerk_n = min(jerk_n, own_speed * stop_jerk)
-        decel *= brake_share
-        jerk_n *= brake_share
+        keep_plan[i], keep_safety[i] = False, False
+        plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
-            bounds[i] = -np.inf  # a row the joints cannot move: no half-space on the command
-            keep[i] = False
-            continue
+            continue  # a row the joints cannot move: no half-space on the command
+        plan_decel, plan_jerk = decel, jerk_n
+        if rate[i] == 0.0 and own_speed > 0.0:
+            plan_decel = min(plan_decel, own_speed * stop_decel)
+            plan_jerk = min(plan_jerk, own_speed * stop_jerk)
+        plan_decel *= brake_share
+        plan_jerk *= brake_share
         gap = dist[i] - (buffer_rad if angular[i] else buffer_m)
         human_closing = -min(rate[i], 0.0)
+        cap = speed_cap if not angular[i] else 0.5 * reach
         if gap <= 0.0:
-            bound = -recovery_gain * gap + human_closing
+            plan_bound = safety_bound = -recovery_gain * gap + human_closing
         else:
-            speed_now, accel_now = human_closing, 0.0
-            for j in range(nv):
-                speed_now -= A[i, j] * qdot_prev[j]
-                accel_now -= A[i, j] * qddot_prev[j]
-            allowed, factor = safe_speed(gap, speed_now, accel_now, decel, jerk_n, dt_s, reach + human_closing)
-            worst_factor = max(worst_factor, factor)
-            bound = human_closing - allowed
+            speed_now = own_speed + human_closing
+            allowed, _ = safe_speed(gap, speed_now, own_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
+            plan_bound = human_closing - allowed
+            if allowed == np.inf:
+                safety_bound = -np.inf  # viable at full speed with less: with the full limits too
+            else:
+                allowed, factor = safe_speed(gap, speed_now, own_accel, decel, jerk_n, dt_s, reach + human_closing)
+                worst_factor = max(worst_factor, factor)
+                safety_bound = human_closing - allowed
             width = width_rad if angular[i] else width_m
             if width > 0.0 and gap < width:
                 desired = rate[i]
                 for j in range(nv):
                     desired += A[i, j] * q0[j]
                 if desired < 0.0:
-                    bound = max(bound, gap / width * desired - min(rate[i], 0.0))
+                    plan_bound = max(plan_bound, gap / width * desired - min(rate[i], 0.0))
         if ssm and np.isfinite(separation[i]):
-            bound = max(bound, -ssm_approach_speed(separation[i], ssm_params))
-        bounds[i] = min(bound, speed_cap if not angular[i] else 0.5 * reach)
-        keep[i] = bounds[i] > -reach - 1e-12  # false for -inf too: a row nothing can break
+            limit = -ssm_approach_speed(separation[i], ssm_params)
+            plan_bound, safety_bound = max(plan_bound, limit), max(safety_bound, limit)
+        plan[i], safety[i] = min(plan_bound, cap), min(safety_bound, cap)
+        keep_plan[i] = plan[i] > -reach - 1e-12
+        keep_safety[i] = safety[i] > -reach - 1e-12
     return worst_factor
 
 
@@ -325,8 +334,8 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
 
 
 @numba.njit(cache=True)
-def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, human_f, settings_f, out_f,
-             out_i):  # pragma: no cover - compiled
+def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference_f, robot_i, robot_f, scene_i,
+             scene_f, human_f, settings_f, out_f, out_i):  # pragma: no cover - compiled
     """One step (see the module docstring); returns the status (``STATUS_*``)."""
     (nq, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, limited, axes, placement_R, placement_t,
      ee_R, ee_t, cap_p0l, cap_p1l, radius, lower, upper, vel, acc, jerk, ee_limits, lever) = unpack_robot(
@@ -342,13 +351,11 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     qddot_prev = state_f[nq + nv:nq + 2 * nv].copy()
     u_prev = state_f[nq + 2 * nv:nq + 2 * nv + 3].copy()
     a_ee_prev = state_f[nq + 2 * nv + 3:nq + 2 * nv + 6].copy()
-    v = command_f[0:3].copy()
-    dt_s = command_f[3]
-    R_ref = command_f[4:13].reshape((3, 3))
-    human_ahead_s = command_f[13]
-    speed_cap = min(command_f[14], max_speed, ee_limits[0])
-    strategy, with_orientation, ssm, force_stop = command_i[0], command_i[1] != 0, command_i[2] != 0, \
-        command_i[3] != 0
+    v = v_desired.copy()
+    R_ref = reference_f[0:9].reshape((3, 3))
+    speed_cap = min(reference_f[9], max_speed, ee_limits[0])
+    with_orientation, ssm, force_stop = (flags & FLAG_ORIENTATION) != 0, (flags & FLAG_SSM) != 0, \
+        (flags & FLAG_STOP) != 0
     ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
     out_i[:] = 0
     out_f[:] = 0.0
@@ -364,7 +371,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     if speed > speed_cap:
         v = v * (speed_cap / speed)
     J = np.ascontiguousarray(J6[:3])
-    error = log3(R_ref @ R_ee.T) if with_orientation else np.zeros(3)
+    error = log3(matmul_nt(R_ref, R_ee)) if with_orientation else np.zeros(3)
     centering = np.zeros(nv)
     for i in range(limited.shape[0]):
         iq, iv = limited[i, 0], limited[i, 1]
@@ -409,7 +416,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
         if scene_i[con, 0] == human_kind.KIND:
             human_skip = min(scene_i[con, 1], n_caps)
     # ---- 3. the strategy's target ------------------------------------------------------------
-    q0 = M @ v + c
+    q0 = matvec(M, v) + c
     Z = null_basis(J)
     nz = 3 + Z.shape[1]
     B = np.zeros((nv, nz))
@@ -429,11 +436,9 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
     safe_keep = np.ones(m, dtype=np.bool_)
     brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc,
-                                     jerk, vel, ee_acc, ee_jerk, 1.0, buffer_m, buffer_rad, recovery_gain, 0.0, 0.0,
-                                     speed_cap, ssm, ssm_params, safe_bounds, safe_keep)
-    limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share,
-                      buffer_m, buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params, bounds,
-                      keep)
+                                     jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
+                                     width_m, width_rad, speed_cap, ssm, ssm_params, bounds, keep, safe_bounds,
+                                     safe_keep)
     if ssm and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
         approach = 0.0
@@ -503,7 +508,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     # motion's curvature (the executed acceleration is J qddot + dJ/dt qdot).
     ee_lo, ee_hi = np.empty(3), np.empty(3)
     share = EE_MOTION_SHARE / np.sqrt(3.0)
-    motion_box(J @ qdot_prev, J @ qddot_prev, np.full(3, share * ee_acc), np.full(3, share * ee_jerk),
+    motion_box(matvec(J, qdot_prev), matvec(J, qddot_prev), np.full(3, share * ee_acc), np.full(3, share * ee_jerk),
                np.full(3, np.inf), dt_s, ee_lo, ee_hi)
     for r in range(3):
         for side in range(2):
@@ -580,7 +585,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     out_f[offsets[4]:offsets[5]] = J62.ravel()
     out_f[offsets[5]:offsets[6]] = p02.ravel()
     out_f[offsets[6]:offsets[7]] = p12.ravel()
-    out_f[offsets[7]:offsets[8]] = J @ qdot_exec
+    out_f[offsets[7]:offsets[8]] = matvec(J, qdot_exec)
     out_f[offsets[8]:offsets[9]] = v_executed
     robot_point, human_point = np.empty(3), np.empty(3)
     kin_next = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
@@ -626,7 +631,7 @@ def arm_step(state_f, command_f, command_i, robot_i, robot_f, scene_i, scene_f, 
     out_i[I_STATUS] = STATUS_DONE
     out_i[I_LEVEL] = level
     user_moves = speed > 0.0 and not (stopped or protective or force_stop)
-    ee_commanded = np.sqrt(np.sum((J @ qdot) ** 2))
+    ee_commanded = np.sqrt(np.sum(matvec(J, qdot) ** 2))
     out_i[I_STOPPED] = int(stopped or protective or force_stop or level == LEVEL_STOPPED or (
         user_moves and ee_commanded <= 1e-6))
     out_i[I_BINDING] = n_binding

@@ -21,6 +21,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from cobotsafety.small_linalg import matmul, matmul_nt, matmul_tn, matvec, matvec_t
+
 
 @numba.njit(cache=True)
 def det_psd(A):  # pragma: no cover - compiled
@@ -62,11 +64,12 @@ def inverse_spd(A):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def damped_least_squares(J, v, damping):  # pragma: no cover - compiled
-    """``J^T (J J^T + damping^2 I)^-1 v`` (paper 2, eqs. 16 and 20): (nv,)."""
-    JJt = J @ J.T
+    """``J^T (J J^T + damping I)^-1 v`` (paper 2, eqs. 16 and 20: ``damping`` is their lambda,
+    added to the diagonal as written): (nv,)."""
+    JJt = matmul_nt(J, J)
     for i in range(JJt.shape[0]):
-        JJt[i, i] += damping * damping
-    return J.T @ (inverse_spd(JJt) @ v)
+        JJt[i, i] += damping
+    return matvec_t(J, matvec(inverse_spd(JJt), v))
 
 
 @numba.njit(cache=True)
@@ -113,21 +116,21 @@ def task_mapping(J, J_angular, error_rad, centering, damping_max, w_threshold, o
     ``orientation_gain_per_s`` through the damped least squares of ``J_angular`` restricted to
     the null space."""
     k, nv = J.shape
-    JJt = J @ J.T
+    JJt = matmul_nt(J, J)
     w = np.sqrt(max(det_psd(JJt), 0.0))
     lam2 = damping_max ** 2 * (1.0 - w / w_threshold) ** 2 if w < w_threshold else 0.0
     for i in range(k):
         JJt[i, i] += lam2
-    M = J.T @ inverse_spd(JJt)
-    N = np.eye(nv) - M @ J
+    M = matmul_tn(J, inverse_spd(JJt))
+    N = np.eye(nv) - matmul(M, J)
     secondary = centering.copy()
     if with_orientation:
-        JwN = J_angular @ N
-        B = JwN @ JwN.T
+        JwN = matmul(J_angular, N)
+        B = matmul_nt(JwN, JwN)
         for i in range(3):
             B[i, i] += 0.01
-        secondary += JwN.T @ (inverse_spd(B) @ (orientation_gain_per_s * error_rad))
-    c = N @ secondary
+        secondary += matvec_t(JwN, matvec(inverse_spd(B), orientation_gain_per_s * error_rad))
+    c = matvec(N, secondary)
     ratio = 0.0
     for i in range(nv):
         ratio = max(ratio, abs(c[i]) / half_velocity_limit[i])

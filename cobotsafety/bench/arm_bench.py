@@ -1,15 +1,15 @@
 """``cobotsafety bench arm --robot NAME``: one full 3D step, beside the human and beside pink.
 
-The step (``ArmTeleop.step`` on the packed path): forward kinematics and Jacobians, every
-constraint (joint limits, reach, table, the demo zones for every capsule, joint velocity
-limits) with the Jacobians of the capsules' closest points, the projection, the integration
-and the safety net's check. The commanded motion presses the hand on the sphere zone so the
-projection works. Measured in the same run, interleaved in rounds of ``BLOCK`` calls of each so
-that the machine's load falls on all of them alike:
+The step (``ArmController.step``, from the Python call to its return): forward kinematics and
+Jacobians, every limitation (joint limits, reach, table, the demo zones for every capsule, the
+joints' speed, acceleration and jerk limits) with the Jacobians of the capsules' closest
+points, the joint-space filter, the integration and the safety net's check. The command presses
+the hand on the sphere zone, so the filter slides. Measured in the same run, interleaved in
+rounds of ``BLOCK`` calls of each so that the machine's load falls on all of them alike:
 
-* ``reference_median_us``: the same step on the reference path (``fast=False``);
-* ``human_median_us``: the human-aware step (``HumanAwareTeleop``, anticipative) with 5 human
-  capsules beside the arm, closing in at 0.3 m/s;
+* ``median_us``: that step;
+* ``human_median_us``: the same arm with a 5-capsule human beside it (the human limitation's rows
+  active), pressing toward the human;
 * ``pink_median_us`` (when ``pin-pink`` and ``daqp`` are installed, extra ``[compare]``): pink's
   differential IK on the same model: a FrameTask on the end-effector and a PostureTask, with
   configuration and velocity limits, solved by daqp, then ``pin.integrate``.
@@ -35,44 +35,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--runs", type=int, default=2000)
 
 
-def _pressing_teleop(robot: str, fast: bool):
-    """An ``ArmTeleop`` driven onto its sphere zone; its state there and the pressing command."""
+DT_S = 0.001
+
+
+def _pressing(robot: str):
+    """An ``ArmController`` driven onto its sphere zone, and the command that presses it there."""
     import numpy as np
 
-    from cobotsafety.arm.teleop import ArmTeleop
+    from cobotsafety.arm.controller import ArmController
+    from cobotsafety.arm.limitations import SphereZone
 
-    teleop = ArmTeleop(robot, fast=fast)
-    state = teleop.state
-    target = np.array(teleop.zones[1].center) if hasattr(teleop.zones[1], "center") else state.p_world_ee
-    for _ in range(600):
-        offset = target - state.p_world_ee
-        teleop.step(0.3 * offset / max(np.linalg.norm(offset), 1e-9), 0.002)
-    v = 0.3 * (target - state.p_world_ee) / max(np.linalg.norm(target - state.p_world_ee), 1e-9) + np.array([0.0, 0.0, 0.05])
-    return teleop, state.q.copy(), teleop.last_command.copy(), v
+    controller = ArmController(robot)
+    target = next(np.array(z.center) for z in controller.zones if isinstance(z, SphereZone))
+    for _ in range(1500):
+        offset = target - controller.state.p_world_ee
+        controller.step(0.2 * offset / max(np.linalg.norm(offset), 1e-9), DT_S)
+    v = 0.2 * (target - controller.state.p_world_ee) / max(np.linalg.norm(target - controller.state.p_world_ee), 1e-9)
+    return controller, v + np.array([0.0, 0.0, 0.05])
 
 
-def _human_teleop(robot: str):
-    """A ``HumanAwareTeleop`` with 5 capsules (torso, arms, legs) beside its arm, closing in."""
+def _beside_a_human(robot: str):
+    """An ``ArmController`` with a 5-capsule human 0.45 m beside its hand, pressed toward them."""
     import numpy as np
 
-    from cobotsafety.control.human_aware import HumanAwareTeleop
+    from cobotsafety.arm.controller import ArmController
     from cobotsafety.human.body import HumanCapsules
 
-    teleop = HumanAwareTeleop(robot)
-    state = teleop.state
-    p = state.p_world_ee
+    controller = ArmController(robot, zones=[])
+    p = controller.state.p_world_ee
     side = np.array([p[0], p[1] + 0.45, 0.0])
     p0 = np.array([side + [0, 0, 0.9], side + [0, -0.2, 1.3], side + [0, 0.2, 1.3], side + [0, -0.1, 0.0],
                    side + [0, 0.1, 0.0]])
     p1 = np.array([side + [0, 0, 1.4], side + [0.1, -0.35, 1.0], side + [0.1, 0.35, 1.0], side + [0, -0.1, 0.9],
                    side + [0, 0.1, 0.9]])
     radius = np.array([0.15, 0.05, 0.05, 0.07, 0.07])
-    names = ("torso", "left arm", "right arm", "left leg", "right leg")
-    for i in range(3):  # two frames give the velocity estimate a rate
-        shift = np.array([0.0, -0.3 * 0.05 * i, 0.0])
-        frame = HumanCapsules(p0 + shift, p1 + shift, radius, names, t_s=0.05 * i)
-        teleop.set_human(frame)
-    return teleop, state.q.copy(), np.array([0.0, 0.2, 0.0])
+    names = ("torso", "upper_arm_left", "forearm_left", "upper_arm_right", "forearm_right")
+    velocity = np.tile([0.0, -0.1, 0.0], (5, 1))
+    controller.set_human(HumanCapsules(p0, p1, radius, names, v0_b_m_s=velocity, v1_b_m_s=velocity))
+    v = np.array([0.0, 0.2, 0.0])
+    for _ in range(1500):
+        controller.step(v, DT_S)
+    return controller, v
 
 
 def _pink_step(state, ee_frame: str):
@@ -109,46 +112,35 @@ def run(args: argparse.Namespace) -> dict:
     import numpy as np
     import pinocchio as pin
 
-    from cobotsafety.arm.step import ArmParams, all_measures, build_halfspaces, mapping
     from cobotsafety.bench.stopwatch import machine_description
 
-    teleop, q_start, previous, v = _pressing_teleop(args.robot, fast=True)
-    reference, _, _, _ = _pressing_teleop(args.robot, fast=False)
-    state = teleop.state
-    params = ArmParams()
-    M, c = mapping(state, params, teleop.R_world_ee_ref)
-    hs = build_halfspaces(state, all_measures(state, teleop.constraints, params.activation_m), M, c,
-                          v[:len(M[0])], 0.002, params)
-    human, q_human, v_human = _human_teleop(args.robot)
-    pink_run = _pink_step(state, state.spec.ee_frame) if args.robot != "planar" else None
+    if args.runs < 1:
+        raise SystemExit(f"--runs must be >= 1, got {args.runs}")
+    controller, v = _pressing(args.robot)
+    human, v_human = _beside_a_human(args.robot)
+    state = controller.state
+    pink_run = _pink_step(state, state.spec.ee_frame)
 
-    def fast_step():
-        state.q = q_start
-        teleop.last_command = previous
-        teleop.step(v, 0.002)
-
-    def reference_step():
-        reference.state.q = q_start
-        reference.state.update()
-        reference.last_command = previous
-        reference.step(v, 0.002)
+    def step():
+        controller.step(v, DT_S)
 
     def human_step():
-        human.state.q = q_human
-        human.step(v_human, 0.002)
+        human.set_human(human.human_frame)  # a fresh frame each step, as the control loop gives it
+        human.step(v_human, DT_S)
+
+    data = state.model.createData()
+    q = state.q.copy()
 
     def pinocchio_only():
-        pin.computeJointJacobians(state.model, state.data, q_start)
-        pin.updateFramePlacements(state.model, state.data)
+        pin.computeJointJacobians(state.model, data, q)
+        pin.updateFramePlacements(state.model, data)
 
-    timed = {"median_us": fast_step, "reference_median_us": reference_step, "human_median_us": human_step,
-             "pinocchio_kinematics_us": pinocchio_only}
+    timed = {"median_us": step, "human_median_us": human_step, "pinocchio_kinematics_us": pinocchio_only}
     if pink_run is not None:
         timed["pink_median_us"] = pink_run
     for fn in timed.values():  # warm up (compilation, caches)
         for _ in range(50):
             fn()
-    fallbacks_before = sum(teleop.packed.fallbacks.values()) + sum(human.teleop.packed.fallbacks.values())
     samples = {key: np.empty(args.runs) for key in timed}
     clock = time.perf_counter_ns
     load_before = os.getloadavg()[0]
@@ -159,14 +151,13 @@ def run(args: argparse.Namespace) -> dict:
                 fn()
                 samples[key][i] = clock() - start
     medians = {key: float(np.median(s) / 1e3) for key, s in samples.items()}
-    fallbacks = sum(teleop.packed.fallbacks.values()) + sum(human.teleop.packed.fallbacks.values()) - fallbacks_before
+    report = controller.last_report
     result = {
         "name": "arm_step",
         "robot": args.robot,
         **{key: round(value, 1) for key, value in medians.items()},
-        "active_constraints": int(hs.normals.shape[0]),
-        "reference_over_fast": round(medians["reference_median_us"] / medians["median_us"], 2),
-        "fast_path_fallbacks": int(fallbacks),
+        "binding": list(report.binding) if report is not None else [],
+        "human_binding": list(human.last_report.binding) if human.last_report is not None else [],
         "load_average_1min": round(max(load_before, os.getloadavg()[0]), 2),
         "machine": machine_description(),
     }
