@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from cobotsafety.geometry.capsule import capsule_distance
+from cobotsafety.experiments.approach_truth import min_capsule_distance_m
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
 
 STOPPED_M_S = 1e-3
@@ -44,11 +44,8 @@ def nominal_radii(capsules: HumanCapsules, body: BodyDimensions) -> np.ndarray:
 
 def plain_distance_m(robot_p0, robot_p1, robot_radius, capsules: HumanCapsules, body: BodyDimensions) -> float:
     """Minimum distance [m] between robot capsules (c, 3), (c, 3), (c,) and the human's own capsules."""
-    if not len(capsules.names) or len(robot_radius) == 0:
-        return np.inf
-    d, _, _ = capsule_distance(robot_p0[:, None], robot_p1[:, None], robot_radius[:, None],
-                               capsules.p0_b_m[None], capsules.p1_b_m[None], nominal_radii(capsules, body)[None])
-    return float(d.min())
+    return min_capsule_distance_m(robot_p0, robot_p1, robot_radius, capsules.p0_b_m, capsules.p1_b_m,
+                                  nominal_radii(capsules, body))
 
 
 def joint_acceleration_ratio(q_rad: np.ndarray, dt_s: float, max_joint_accel_rad_s2: np.ndarray) -> float:

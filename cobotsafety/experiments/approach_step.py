@@ -35,6 +35,8 @@ class Controller:
     ssm: str
     ssm_params: SsmParams
     robot: str
+    human_set: bool = False
+    """A human was given to the arm and not cleared since."""
     qdot_last: np.ndarray | None = None
     """The joint rates the last step executed (nv,) [rad/s]."""
 
@@ -100,8 +102,10 @@ def step(controller: Controller, human: HumanCapsules | None, v_att_m_s: np.ndar
     arm = controller.arm
     if human is not None and human.present:
         arm.set_human(human)
-    else:
+        controller.human_set = True
+    elif controller.human_set:  # cleared once when the human leaves (the same as every step)
         arm.clear_human()
+        controller.human_set = False
     q_before = arm.state.q.copy()
     held = False
     if controller.ssm == "stop":

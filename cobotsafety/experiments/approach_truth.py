@@ -11,9 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 
-from cobotsafety.geometry.capsule import capsule_distance
+from cobotsafety.geometry.capsule import _capsule_kernel
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,30 @@ class TruthHuman:
         if len(robot_radius) == 0:
             return np.inf
         p0, p1 = self.capsules_at(t_s)
-        d, _, _ = capsule_distance(np.asarray(robot_p0)[:, None], np.asarray(robot_p1)[:, None],
-                                   np.asarray(robot_radius)[:, None], p0[None], p1[None], self.radius_m[None])
-        return float(d.min())
+        return min_capsule_distance_m(robot_p0, robot_p1, robot_radius, p0, p1, self.radius_m)
+
+
+def min_capsule_distance_m(a0, a1, ra, b0, b1, rb) -> float:
+    """The smallest distance [m] between any capsule of A ((c, 3), (c, 3), (c,)) and any of B
+    ((k, 3), (k, 3), (k,)), ``capsule_distance``'s kernel on the c x k pairs in one compiled
+    call (the broadcasting wrapper costs more than the distances at these sizes). inf when
+    either is empty."""
+    if len(ra) == 0 or len(rb) == 0:
+        return np.inf
+    f = [np.ascontiguousarray(x, dtype=np.float64) for x in (a0, a1, ra, b0, b1, rb)]
+    return float(_min_pairs(*f))
+
+
+@numba.njit(cache=True)
+def _min_pairs(a0, a1, ra, b0, b1, rb):  # pragma: no cover - compiled
+    c, k = ra.shape[0], rb.shape[0]
+    p0, p1, r0 = np.empty((c * k, 3)), np.empty((c * k, 3)), np.empty(c * k)
+    q0, q1, r1 = np.empty((c * k, 3)), np.empty((c * k, 3)), np.empty(c * k)
+    for i in range(c):
+        for j in range(k):
+            row = i * k + j
+            p0[row], p1[row], r0[row] = a0[i], a1[i], ra[i]
+            q0[row], q1[row], r1[row] = b0[j], b1[j], rb[j]
+    d, pa, pb = np.empty(c * k), np.empty((c * k, 3)), np.empty((c * k, 3))
+    _capsule_kernel(p0, p1, r0, q0, q1, r1, d, pa, pb)
+    return d.min()

@@ -164,7 +164,8 @@ def generate(scenario: Scenario | str = "reach-over", seed: int = 7) -> tuple[Re
     rng = np.random.default_rng(seed)
     duration_s = scenario.duration_s
     # Laser: 50 Hz, +-0.5 ms jitter, some scans lost.
-    laser_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ) + rng.uniform(-5e-4, 5e-4, int(duration_s * LASER_RATE_HZ))
+    laser_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ)
+    laser_t = laser_t + rng.uniform(-5e-4, 5e-4, laser_t.size)
     laser_t = np.round(laser_t[(rng.random(laser_t.size) >= LASER_SCAN_LOSS) & (laser_t > 0)], 6)
     others = tuple(getattr(scenario, "others", ()))  # a ``Group``: more people, seen by the laser only
     legs = np.concatenate([scan_legs_xy(person, laser_t) for person in (scenario, *others)], axis=1)

@@ -242,7 +242,6 @@ def draw_walker(rng: np.random.Generator, name: str, delay_s: float = 0.0) -> tu
     start = START_DISTANCE_M * np.array([np.cos(angle), np.sin(angle)])
     speed = float(rng.uniform(*PEAK_SPEED_M_S))
     kind = "cross" if rng.random() < 0.35 else "approach"
-    keys = [(0.0, *start, 0.0)]
     t = delay_s
     reaches: list[Reach] = []
     drawn = {"side": side, "peak_speed_m_s": round(speed, 3), "kind": kind, "delay_s": round(delay_s, 3)}
@@ -255,7 +254,7 @@ def draw_walker(rng: np.random.Generator, name: str, delay_s: float = 0.0) -> tu
         end = closest + 2.4 * tangent
         first = closest - 2.4 * tangent
         heading = float(np.arctan2(tangent[1], tangent[0]))
-        keys = [(0.0, *first, heading), (t, *first, heading)]
+        keys = [(0.0, *first, heading)] + ([(t, *first, heading)] if t > 0 else [])
         t += _segment_s(first, end, speed)
         keys.append((t, *end, heading))
         drawn.update(closest_torso_m=round(distance, 3))
@@ -264,7 +263,7 @@ def draw_walker(rng: np.random.Generator, name: str, delay_s: float = 0.0) -> tu
         stop_angle = angle + rng.uniform(-0.5, 0.5)
         stop = stop_distance * np.array([np.cos(stop_angle), np.sin(stop_angle)])
         facing = float(np.arctan2(-stop[1], -stop[0]))  # faces the robot base
-        keys = [(0.0, *start, facing), (t, *start, facing)]
+        keys = [(0.0, *start, facing)] + ([(t, *start, facing)] if t > 0 else [])
         t += _segment_s(start, stop, speed)
         keys.append((t, *stop, facing))
         pause = float(rng.uniform(*PAUSE_S))
