@@ -261,3 +261,25 @@ def test_ssm_protective_stop_holds_the_robot_inside_S_only():
     far = approach_step.make_controller("iiwa", "anticipative", ssm="stop")
     out = approach_step.step(far, _torso(approach_step.state(far).p_world_ee + [0.0, 2.0, 0.0]), np.array([0.1, 0.0, 0.0]), 1e-3)
     assert not out.protective_stop and np.linalg.norm(out.report.v_executed_m_s) > 1e-3  # 3 m/s^2 x 1 ms
+
+
+def test_the_anticipative_arm_yields_when_two_people_close_in_from_both_sides():
+    """People closing in on the hand from +y and -y at 1 m/s: the retreats from them contradict.
+    The arm decides to yield (stopped, "yielding", for the dwell at least) instead of stopping
+    and going at every step. Fails when the yield decision is removed."""
+    from cobotsafety.control.controllers import YIELD_DWELL_S
+
+    controller = approach_step.make_controller("iiwa", "anticipative")
+    p = approach_step.state(controller).p_world_ee.copy()
+    gap = settings.CRITICAL_M + 0.115 + 0.15 + 0.10
+    dt, reports = 1e-3, []
+    for k in range(300):
+        t = k * dt
+        closing, speed = min(t, 0.1), (1.0 if t < 0.1 else 0.0)
+        a, b = p + [0, gap - closing, 0], p + [0, -gap + closing, 0]
+        v = np.array([[0, -speed, 0], [0, speed, 0]])
+        human = HumanCapsules(np.array([a + [0, 0, -0.3], b + [0, 0, -0.3]]), np.array([a + [0, 0, 0.3], b + [0, 0, 0.3]]),
+                              np.array([0.15, 0.15]), ("torso", "upper_arm_left"), v0_b_m_s=v, v1_b_m_s=v)
+        reports.append(approach_step.step(controller, human, np.array([0.0, 0.3, 0.0]), dt).report)
+    yielding = np.array([r.stopped and r.reason.startswith("yielding") for r in reports])
+    assert yielding[0] and yielding[: int(round(YIELD_DWELL_S / dt))].all()
