@@ -64,6 +64,21 @@ def _truth(human):
     return TruthHuman(human.t_s, human.p0_b_m, human.p1_b_m, human.radius_m)
 
 
+def test_the_separation_gradient_matches_finite_differences():
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    rng = np.random.default_rng(4)
+    q = kin.state.q.copy() + rng.normal(scale=0.2, size=kin.state.nv)
+    p = kin.capsules(q)[1][-1] + [0.1, 0.45, -0.05]
+    human = (np.array([p + [0, 0, -0.3]]), np.array([p + [0, 0, 0.3]]), np.array([0.15]))
+    d, grad = kin.separation(q, *human)
+    h = 1e-6
+    numeric = [(kin.separation(q + h * e, *human)[0] - kin.separation(q - h * e, *human)[0]) / (2 * h)
+               for e in np.eye(len(q))]
+    np.testing.assert_allclose(grad, numeric, atol=1e-5)
+
+
 def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
     from cobotsafety.arm.robot_state import RobotState
 

@@ -8,7 +8,7 @@ minimum distance [m] between the robot's capsules (c, 3), (c, 3), (c,) and the t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numba
@@ -23,6 +23,8 @@ class TruthHuman:
     p0_b_m: np.ndarray
     p1_b_m: np.ndarray
     radius_m: np.ndarray
+    _memo: dict = field(default_factory=dict, compare=False, repr=False)
+    """``capsules_at`` by time: every controller run on the same person asks for the same times."""
 
     @classmethod
     def load(cls, path: str | Path) -> "TruthHuman":
@@ -36,6 +38,12 @@ class TruthHuman:
 
     def capsules_at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """End points (k, 3), (k, 3) [m] at ``t_s`` (generator clock) [s]."""
+        found = self._memo.get(t_s)
+        if found is None:
+            found = self._memo[t_s] = self._interpolate(t_s)
+        return found
+
+    def _interpolate(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         t = self.t_s
         i = int(np.clip(np.searchsorted(t, t_s) - 1, 0, len(t) - 2))
         w = float(np.clip((t_s - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0))
