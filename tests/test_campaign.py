@@ -129,11 +129,10 @@ def test_the_campaign_resumes_and_is_deterministic(tiny):
 def test_a_tiny_campaign_on_a_local_ray_instance_gives_the_same_results(tiny, tmp_path):
     import ray
     out, _ = tiny
-    try:
-        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": {"PYTHONPATH": str(__import__("pathlib").Path(__file__).resolve().parents[1])}})
+    try:  # the runner starts the local instance: ray.init(num_cpus=2) on 127.0.0.1
         result = run_campaign(tmp_path, ("iiwa",), ("stop",), people=2, seed=5, workers=2, ray_address="local",
                               escape_check=False, progress=False)
+        assert ray.is_initialized() and ray.cluster_resources()["CPU"] == 2
     finally:
         ray.shutdown()
     assert result["timing"]["tasks_run"] == 2

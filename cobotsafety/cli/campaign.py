@@ -37,6 +37,11 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit(f"--controller must be one of {CONTROLLERS} or all, got {args.controller!r}")
     if args.people < 1 or args.workers < 1:
         raise SystemExit("--people and --workers must be at least 1")
+    if args.ray:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise SystemExit("--ray needs Ray: pip install 'cobotsafety[ray]'") from None
     out = run_campaign(args.out, tuple(args.robot), controllers, args.people, args.seed, args.workers, args.ray,
                        escape_check=not args.no_escape_check)
     print(json.dumps(out["timing"]))

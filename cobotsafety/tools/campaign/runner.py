@@ -44,17 +44,23 @@ def pending_tasks(out_dir: Path, robots, controllers, people: int) -> list[tuple
 
 
 def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], dt_s: float, escape_check: bool,
-             nominal_s: float | None = None) -> list[dict]:
-    """One task in a worker (``person_run.run_person``); warnings of the step are not printed."""
+             nominal_s: float | None = None) -> tuple[list[dict], float]:
+    """One task in a worker (``person_run.run_person``): its results and the CPU time it took
+    [s] (the worker process's, so a shared machine's load does not count); the step's warnings
+    are not printed."""
     import logging
 
     from cobotsafety.tools.campaign.person_run import run_person
 
     logging.getLogger("cobotsafety").setLevel(logging.ERROR)
-    return run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s)
+    start = time.process_time()
+    results = run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s)
+    return results, time.process_time() - start
 
 
-def _save(out_dir: Path, results: list[dict]) -> None:
+def _save(out_dir: Path, outcome: tuple[list[dict], float], cpu: list) -> None:
+    results, cpu_s = outcome
+    cpu.append(cpu_s)
     for r in results:
         _write_atomic(result_path(out_dir, r["robot"], r["controller"], r["person"]), json.dumps(r, sort_keys=True) + "\n")
 
@@ -86,11 +92,12 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
     nominal = {robot: nominal_completion_s(robot, dt_s) for robot in {t[0] for t in tasks}}  # once, not per worker
     tasks = [(robot, person, missing, nominal[robot]) for robot, person, missing in tasks]
     bar = tqdm(total=len(tasks), desc="people", unit="person", disable=not progress)
+    cpu: list[float] = []
     if tasks and ray_address:
-        _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, ray_address, workers, bar)
+        _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, ray_address, workers, bar, cpu)
     elif tasks and workers <= 1:
         for robot, person, missing, nominal_s in tasks:
-            _save(out_dir, run_task(robot, person, seed, missing, dt_s, escape_check, nominal_s))
+            _save(out_dir, run_task(robot, person, seed, missing, dt_s, escape_check, nominal_s), cpu)
             bar.update()
     elif tasks:
         from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -99,15 +106,17 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
             futures = [pool.submit(run_task, robot, person, seed, missing, dt_s, escape_check, nominal_s)
                        for robot, person, missing, nominal_s in tasks]
             for future in as_completed(futures):
-                _save(out_dir, future.result())
+                _save(out_dir, future.result(), cpu)
                 bar.update()
     bar.close()
     wall_s = time.perf_counter() - start
     person_controllers = sum(len(task[2]) for task in tasks)
-    cores = workers
+    cpu_s = float(sum(cpu))
     timing = {"tasks_run": len(tasks), "person_controllers_run": person_controllers, "wall_s": round(wall_s, 2),
-              "workers": workers, "ray": ray_address,
-              "person_controllers_per_s_per_core": round(person_controllers / wall_s / cores, 4) if tasks else None}
+              "workers": workers, "ray": ray_address, "cpu_s": round(cpu_s, 2),
+              "person_controllers_per_s_per_core": round(person_controllers / wall_s / workers, 4) if tasks else None,
+              "person_controllers_per_cpu_s": round(person_controllers / cpu_s, 4) if cpu_s > 0 else None,
+              "load_average": list(os.getloadavg())}
     (out_dir / "timing.json").write_text(json.dumps(timing, indent=1) + "\n")
     header = (f"{people} people (seed {seed}) x robots {', '.join(robots)} x controllers {', '.join(controllers)}; "
               f"control at {1 / dt_s:.0f} Hz; scanner at the table corner; learned leg detector + person tracker.")
@@ -115,13 +124,14 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
     return {"summary": summary, "timing": timing}
 
 
-def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar) -> None:
+def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar, cpu) -> None:
     import ray
 
     if not ray.is_initialized():
         if address == "local":
             package_root = str(Path(__file__).resolve().parents[3])
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+            # Bound to 127.0.0.1 (a local instance has no authentication), no dashboard.
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1",
                      runtime_env={"env_vars": {"PYTHONPATH": package_root}})
         else:
             ray.init(address=address, log_to_driver=False)
@@ -131,5 +141,5 @@ def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar)
     while pending:
         done, pending = ray.wait(pending, num_returns=1)
         for ref in done:
-            _save(out_dir, ray.get(ref))
+            _save(out_dir, ray.get(ref), cpu)
             bar.update()
