@@ -81,8 +81,10 @@ def test_the_arm_gives_way_without_breaching_the_critical_distance(walk):
 
 def test_no_stop_go_chatter_and_bounded_acceleration(walk):
     log, robot, _, _ = walk
-    transitions = int(np.sum(log["stopped"][1:] != log["stopped"][:-1]))
-    assert transitions == 0
+    # Chatter is seen in the motion, not in ``stopped`` (forced False while the gizmo is
+    # released): the arm starts moving once when the person comes and comes to rest once, home.
+    moving = np.linalg.norm(log["executed"], axis=1) > 1e-3
+    assert int(np.sum(moving[1:] != moving[:-1])) <= 2
     a_dt = robot.teleop.params.max_accel_m_s2 * DT
     changes = np.abs(np.diff(log["commanded"], axis=0)).max(axis=1)
     # Only the steps where the retreat needed more than the bound exceed it (safety wins)...

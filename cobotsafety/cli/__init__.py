@@ -18,6 +18,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("cobotsafety.cli.bench", "measure the speed of a pipeline (median over many runs)"),
     "trial": ("cobotsafety.cli.trial", "run a user trial (operator and participant views)"),
     "analyze": ("cobotsafety.cli.analyze", "analyse a folder of trial logs into a report"),
+    "campaign": ("cobotsafety.cli.campaign", "validate the controllers over many drawn people (resumable, parallel)"),
 }
 
 

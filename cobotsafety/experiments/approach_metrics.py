@@ -1,25 +1,34 @@
-"""What one human-approach run is judged by (``human_approach``), from its per-step log.
+"""What one human-approach run is judged by, from its per-step log (``EpisodeLog``).
 
-* ``min_distance_m``: the smallest human-robot capsule distance the controller saw (human
-  capsules as the pipeline hands them out: radii grown while a sensor is old, 1 capsule while
-  an IMU is silent).
-* ``min_distance_plain_m``: the same against the human's own capsules (body radii, no growth),
-  as paper 2 measured it.
-* ``peak_ee_speed_m_s`` / ``max_ee_accel_m_s2``: largest end-effector speed, and largest change
-  of the executed velocity between consecutive steps over the step.
-* ``stopped_time_s``: time the arm was held although the task wanted it to move: the
-  controller said stopped, or the attraction asked for more than ``MOVING_M_S`` while the
-  end-effector moved slower than ``STOPPED_M_S``. Holding a pose the task holds is not a stop.
-* ``stop_go_transitions``: how often that stopped flag changed (stop -> go or go -> stop).
+Distances [m], each its own named quantity:
+
+* ``min_distance_seen_m``: what the controller saw (the pipeline's human with radii grown while
+  a sensor is old, one capsule while an IMU is silent);
+* ``min_distance_estimate_m``: the pipeline's five-capsule human with the body's own radii (no
+  growth), as paper 2 measured it; steps where the pipeline fell back to one capsule are not in
+  it, they are in
+* ``min_distance_one_capsule_m``: the one-capsule fallback (an IMU silent), body radius; None
+  when it never happened;
+* ``min_distance_true_m``: the ground-truth human (the generator's), None without a truth;
+* ``estimate_error_at_closest_m``: at the step of the smallest true distance, the pipeline's
+  estimate (five capsules, or the fallback) minus the truth (negative: the estimate was nearer).
+
+Motion: ``peak_ee_speed_m_s``, ``max_ee_accel_m_s2`` (largest change of the executed velocity
+between steps over the step), ``max_joint_acceleration_ratio`` (largest |qdd_i| / limit_i over
+the run, qdd by second differences of the joint positions). Task: ``completion_time_s``;
+``stopped_time_s``, time held although the task wanted motion (the controller said stopped, or
+the attraction asked for more than ``MOVING_M_S`` while the end-effector moved slower than
+``STOPPED_M_S``); ``stop_go_transitions``, changes of that flag; ``protective_stop_time_s``,
+time SSM's protective stop held the robot.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from cobotsafety.geometry.capsule import capsule_distance
+from cobotsafety.experiments.approach_truth import min_capsule_distance_m
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
 
 STOPPED_M_S = 1e-3
@@ -35,33 +44,66 @@ def nominal_radii(capsules: HumanCapsules, body: BodyDimensions) -> np.ndarray:
 
 def plain_distance_m(robot_p0, robot_p1, robot_radius, capsules: HumanCapsules, body: BodyDimensions) -> float:
     """Minimum distance [m] between robot capsules (c, 3), (c, 3), (c,) and the human's own capsules."""
-    if not len(capsules.names) or len(robot_radius) == 0:
-        return np.inf
-    d, _, _ = capsule_distance(robot_p0[:, None], robot_p1[:, None], robot_radius[:, None],
-                               capsules.p0_b_m[None], capsules.p1_b_m[None], nominal_radii(capsules, body)[None])
-    return float(d.min())
+    return min_capsule_distance_m(robot_p0, robot_p1, robot_radius, capsules.p0_b_m, capsules.p1_b_m,
+                                  nominal_radii(capsules, body))
+
+
+def joint_acceleration_ratio(q_rad: np.ndarray, dt_s: float, max_joint_accel_rad_s2: np.ndarray) -> float:
+    """Largest |qdd_i| / limit_i over a joint trajectory ``q_rad`` (n, nq) sampled every ``dt_s``
+    (second differences; the run starts and ends at rest is not assumed). 0 for n < 3."""
+    q = np.asarray(q_rad, dtype=float)
+    if len(q) < 3:
+        return 0.0
+    qdd = np.diff(q, n=2, axis=0) / (dt_s * dt_s)
+    return float(np.max(np.abs(qdd) / np.asarray(max_joint_accel_rad_s2, dtype=float)[None, : q.shape[1]]))
+
+
+def _min_or_none(values) -> float | None:
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    return float(finite.min()) if finite.size else None
 
 
 @dataclass(frozen=True)
 class RunMetrics:
-    min_distance_m: float
-    min_distance_plain_m: float
+    min_distance_seen_m: float | None
+    min_distance_estimate_m: float | None
+    min_distance_one_capsule_m: float | None
+    min_distance_true_m: float | None
+    estimate_error_at_closest_m: float | None
+    closest_time_s: float | None
     peak_ee_speed_m_s: float
     completion_time_s: float | None
     stopped_time_s: float
     stop_go_transitions: int
+    protective_stop_time_s: float
     max_ee_accel_m_s2: float
+    max_joint_acceleration_ratio: float
+
+    def as_dict(self, digits: int = 4) -> dict:
+        return {k: (round(v, digits) if isinstance(v, float) and np.isfinite(v) else
+                    (None if isinstance(v, float) else v)) for k, v in asdict(self).items()}
 
 
-def run_metrics(dt_s: float, distance_m, plain_m, v_executed_m_s, v_desired_m_s, stopped,
-                completion_time_s: float | None) -> RunMetrics:
-    """Metrics from per-step arrays: distances (n,) [m], executed and desired end-effector
-    velocities (n, 3) [m/s], the controller's stopped flags (n,)."""
+def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_executed_m_s, v_desired_m_s,
+                stopped, protective, q_rad, max_joint_accel_rad_s2, completion_time_s: float | None) -> RunMetrics:
+    """Metrics from per-step arrays (n,) [m] (NaN where a quantity does not apply, inf where
+    nobody is there), executed and desired end-effector velocities (n, 3) [m/s], the
+    controller's stopped flags and SSM's protective stops (n,), joint positions (n, nq) [rad]."""
     v = np.asarray(v_executed_m_s, float).reshape(-1, 3)
     speed = np.linalg.norm(v, axis=1)
     wanted = np.linalg.norm(np.asarray(v_desired_m_s, float).reshape(-1, 3), axis=1)
     held = np.asarray(stopped, bool) | ((wanted > MOVING_M_S) & (speed < STOPPED_M_S))
     accel = np.linalg.norm(np.diff(v, axis=0, prepend=np.zeros((1, 3))), axis=1) / dt_s  # from rest
-    return RunMetrics(float(np.min(distance_m)), float(np.min(plain_m)), float(speed.max()), completion_time_s,
+    true = np.asarray(true_m, float)
+    estimate = np.where(np.isfinite(np.asarray(estimate_m, float)), estimate_m, one_capsule_m)
+    error = closest = None
+    if np.isfinite(true).any():
+        k = int(np.nanargmin(np.where(np.isfinite(true), true, np.nan)))
+        closest = float(np.asarray(t_s)[k])
+        error = float(estimate[k] - true[k]) if np.isfinite(estimate[k]) else None
+    return RunMetrics(_min_or_none(seen_m), _min_or_none(estimate_m), _min_or_none(one_capsule_m), _min_or_none(true),
+                      error, closest, float(speed.max()) if speed.size else 0.0, completion_time_s,
                       float(held.sum() * dt_s), int(np.count_nonzero(np.diff(held.astype(int)))),
-                      float(accel.max()))
+                      float(np.sum(protective) * dt_s), float(accel.max()) if accel.size else 0.0,
+                      joint_acceleration_ratio(q_rad, dt_s, max_joint_accel_rad_s2))

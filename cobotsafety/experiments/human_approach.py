@@ -1,134 +1,188 @@
 """Paper 2's experiments (section 5), headless: a recorded human next to a robot doing its task.
 
-    cobotsafety experiment human-approach --scenario exp1|exp2|reach-over [--robot iiwa]
-        [--replay FILE] [--controller C ...] [--ssm] [--capsules paper|fitted] [--json] [--out DIR]
+    cobotsafety experiment human-approach --scenario exp1|exp2|reach-over [--scanner corner|edge]
+        [--robot iiwa] [--replay FILE] [--controller C ...] [--ssm off|scaling|stop]
+        [--capsules paper|fitted] [--json] [--out DIR]
 
-A bundled recording (``assets/recordings/<scenario>.jsonl.gz``, made by
-``cobotsafety.tools.generate_recording``) or ``--replay`` (a recording in the documented format,
-or a ROS bag: laser only, 1-capsule human) is replayed through the whole sensor pipeline (laser
-legs -> torso, IMUs -> arms) causally: at control time t only samples stamped <= t are used.
-The control loop runs at paper 2's 275 Hz; the robot follows its task path
+A bundled recording (``assets/recordings/<scenario>[-corner].jsonl.gz``, made by
+``cobotsafety.tools.generate_recording``: the scanner at the table's corner as in paper 2
+(``exp1-corner``, ``exp2-corner``, the default), or under its front edge (``exp1``, ``exp2``)) or ``--replay`` (a recording in the documented format, or a ROS bag:
+laser only, 1-capsule human) is replayed through the whole sensor pipeline (laser legs ->
+torso, IMUs -> arms) causally: at control time t only samples stamped <= t are used. The
+control loop runs at paper 2's 275 Hz; the robot follows its task path
 (``cobotsafety.control.nominal_path``) through the anti-windup PI on the error to the moving
-target (eqs. 14-15), filtered by the chosen controller:
+target (eqs. 14-15), filtered by the chosen controller (through ``approach_step``, the one place
+that touches it):
 
 * ``exp1``: the pick-and-place task (``paper_pick_and_place``): home until the box is placed
   and the co-worker gone (10.5 s), pick, carry, place, home. Also the task for ``--replay``.
 * ``exp2``: hold the home pose until the recording ends.
 * ``reach-over``: the stress case's two-cycle pick-and-place (``pick_and_place``).
 
-Distances (paper 2 gives none of its parameters: eq. 18 names ``d_cr``, ``d_o`` and ``k_rep``
-only). Paper 2's field: ``d_cr`` = ``PAPER_CRITICAL_M`` = 0.30 m, activation ``d_cr + d_o`` =
-``PAPER_ACTIVATION_M`` = 0.90 m, ``k_rep`` = ``PAPER_K_REP_M_S`` = 0.3 m/s. Speed: the
-robot's end-effector cap per experiment (``experiment_arm_params``) is the paper's peak
-(355 / 548 mm/s) spread over three axes (0.20 / 0.30 m/s per axis), and the task path runs at
-0.12 m/s (the paper gives no task speed; slow, well under both caps). The paper's
-minima (431 and 393 mm) lie between ``d_cr`` and the activation; the field must start early
-enough (0.9 m) that a co-worker walking at up to 1.35 m/s, seen by the scanner only within its
-1.4 m clip, meets a retreat before the 0.4 m mark; with these three values the field reproduces
-the paper's experiment-2 figures (see README). The anticipative filter and the stop baseline
-keep a protected distance they must not cross (the field has no such guarantee: it stops at
-``d_cr``). ``PROTECTED_M`` = 0.50 m at the filter's own speed (reach-over): the paper's "never
-less than 450 mm" (experiment 1) plus 50 mm for the latency of the 50 Hz scanner
-(1.35 m/s x 20 ms x 2). ``SCENARIO_PROTECTED_M`` = 0.65 m in exp1 and exp2, where the arm is
-capped at the paper's speeds: a co-worker closing at up to 1.35 m/s gains on an arm that
-retreats at 0.35-0.55 m/s, so the retreat must start earlier. The margin was chosen by a sweep
-on these two scenarios only (0.50/0.55/0.60/0.65 m kept 413/426/430/439 mm in exp1 and
-361/387/411/422 mm in exp2, plain distance): 0.65 m is the first that keeps the paper's
-distance in both. The same activation (0.9 m)
-for all. The robot is covered by paper 2's three capsules (``--capsules paper``, default) so that
-the distances compare with the paper's; ``fitted`` uses the tight per-link capsules.
+Every setting (speed limit, critical and activation distances, field gain) is in
+``approach_settings``, one for all scenarios, fixed before the results. Each run reports the
+distance the controller saw, to the pipeline's five-capsule human, to its one-capsule fallback
+(separately), and to the ground truth (``<recording>_truth.npz`` beside the recording, when
+there is one), with the estimate's error at the true closest moment (``approach_metrics``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from cobotsafety.experiments import approach_settings as settings
 from cobotsafety.experiments.approach_metrics import RunMetrics, plain_distance_m, run_metrics
+from cobotsafety.experiments.approach_truth import TruthHuman
 
 SCENARIOS = ("exp1", "exp2", "reach-over")
+SCANNERS = ("corner", "edge")
 CONTROLLERS = ("anticipative", "reactive", "stop")
-CONTROL_RATE_HZ = 275.0
-PAPER_CRITICAL_M = 0.30
-PAPER_ACTIVATION_M = 0.90
-PAPER_K_REP_M_S = 0.30
-PROTECTED_M = 0.50
-#: The distance the anticipative and stop controllers keep in paper 2's experiments [m]: more
-#: than ``PROTECTED_M`` because the arm is capped at the paper's speeds there (see above).
-SCENARIO_PROTECTED_M = {"exp1": 0.65, "exp2": 0.65}
-#: The attraction to the task path (eq. 15) saturates here; the arm's own cap (below) is lower.
-TASK_SPEED_LIMIT_M_S = 0.5
 DEFAULT_ROBOT = "iiwa"
-#: Per-axis end-effector speed cap [m/s] of the robot in each of paper 2's experiments: the
-#: paper's peak / sqrt(3) rounded down (0.355 -> 0.20, 0.548 -> 0.30), so that no direction
-#: exceeds the speed the paper's robot reached.
-SCENARIO_MAX_SPEED_M_S = {"exp1": 0.20, "exp2": 0.30}
+
+
+def recording_name(scenario: str, scanner: str = "corner") -> str:
+    """The bundled recording of ``scenario`` with the scanner at the table's ``corner`` (paper 2's
+    set-up) or under its front ``edge``. ``reach-over`` has its scanner at the corner only."""
+    if scanner not in SCANNERS:
+        raise ValueError(f"scanner must be one of {SCANNERS}, got {scanner!r}")
+    if scenario == "reach-over" or scanner == "edge":
+        return scenario
+    return f"{scenario}-corner"
+
+
+@dataclass
+class EpisodeLog:
+    """Per-step arrays of one run (n steps): see ``approach_metrics``."""
+
+    t_s: list = field(default_factory=list)
+    seen_m: list = field(default_factory=list)
+    estimate_m: list = field(default_factory=list)
+    one_capsule_m: list = field(default_factory=list)
+    true_m: list = field(default_factory=list)
+    p_ee_m: list = field(default_factory=list)
+    v_ee_m_s: list = field(default_factory=list)
+    v_att_m_s: list = field(default_factory=list)
+    stopped: list = field(default_factory=list)
+    protective: list = field(default_factory=list)
+    q_rad: list = field(default_factory=list)
+    torso_xy_m: list = field(default_factory=list)
+    completion_s: float | None = None
+
+
+class HumanSeries:
+    """The pipeline's human at control steps ``k`` (time ``start_s + k dt_s``), computed once and
+    shared by every controller run on the same replay (the pipeline does not depend on the robot).
+    None after ``end_s`` (the recording is over: the human has left)."""
+
+    def __init__(self, capsules_at, start_s: float, end_s: float, dt_s: float):
+        self._at, self.start_s, self.end_s, self.dt_s = capsules_at, start_s, end_s, dt_s
+        self._cache: list = []
+
+    def __getitem__(self, k: int):
+        while len(self._cache) <= k:
+            t = len(self._cache) * self.dt_s
+            self._cache.append(self._at(self.start_s + t) if t <= self.end_s - self.start_s else None)
+        return self._cache[k]
+
+
+def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s: float,
+                truth: TruthHuman | None = None, truth_offset_s: float = 0.0,
+                completion_tolerance_m: float = 0.01) -> EpisodeLog:
+    """Drive ``controller`` (``approach_step.Controller``) along ``path`` next to ``humans``
+    until the path is done (end-effector within ``completion_tolerance_m`` of its end) or
+    ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance."""
+    from cobotsafety.control.pi import AntiWindupPI
+    from cobotsafety.experiments import approach_step
+
+    state = approach_step.state(controller)
+    skip = controller.arm.human.skip_capsules
+    pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=settings.ATTRACTION_LIMIT_M_S)
+    log = EpisodeLog()
+    end_point = path.point(path.length_m)
+    k, t = 0, 0.0
+    while t < end_s:
+        human = humans[k]
+        present = human is not None and human.present
+        p_ee = state.p_world_ee
+        v_att = pi.update(path.advance(p_ee, dt_s) - p_ee, dt_s)
+        out = approach_step.step(controller, human if present else None, v_att, dt_s)
+        k += 1
+        t = k * dt_s
+        robot = (state.capsule_p0[skip:], state.capsule_p1[skip:], state.capsule_radius[skip:])
+        five = one = np.nan
+        if present:
+            log.torso_xy_m.append(0.5 * (human.p0_b_m[0, :2] + human.p1_b_m[0, :2]))
+            plain = plain_distance_m(*robot, human, body)
+            if len(human.names) == 1:
+                one = plain
+            else:
+                five = plain
+        true = truth.distance_m(*robot, truth_offset_s + t) if truth is not None else np.nan
+        for values, value in ((log.t_s, t), (log.seen_m, out.min_distance_m), (log.estimate_m, five),
+                              (log.one_capsule_m, one), (log.true_m, true), (log.p_ee_m, out.report.p_base_ee_m),
+                              (log.v_ee_m_s, out.report.v_executed_m_s), (log.v_att_m_s, v_att),
+                              (log.stopped, out.report.stopped), (log.protective, out.protective_stop),
+                              (log.q_rad, out.q)):
+            values.append(value)
+        if path.finished and np.linalg.norm(state.p_world_ee - end_point) < completion_tolerance_m:
+            log.completion_s = t
+            break
+    return log
+
+
+def episode_metrics(log: EpisodeLog, dt_s: float, robot: str) -> RunMetrics:
+    limits, _ = settings.joint_acceleration_limits(robot)
+    return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
+                       log.v_att_m_s, log.stopped, log.protective, log.q_rad, limits, log.completion_s)
 
 
 @dataclass
 class ApproachRun:
     scenario: str
+    recording: str
     robot: str
     controller: str
-    ssm: bool
+    ssm: str
     metrics: RunMetrics
-    t_s: np.ndarray
-    distance_m: np.ndarray
-    plain_m: np.ndarray
-    p_ee_m: np.ndarray
-    speed_m_s: np.ndarray
-    torso_xy_m: np.ndarray
-    critical_m: float = PAPER_CRITICAL_M
+    log: EpisodeLog
+    critical_m: float = settings.CRITICAL_M
 
     @property
     def label(self) -> str:
-        return f"{self.scenario}_{self.robot}_{self.controller}" + ("_ssm" if self.ssm else "")
+        return f"{Path(self.recording).name.split('.')[0]}_{self.robot}_{self.controller}" + (
+            "" if self.ssm == "off" else f"_ssm-{self.ssm}")
 
     def as_json(self) -> dict:
-        m = self.metrics
-
-        def mm(x):
-            return None if x is None or not np.isfinite(x) else round(float(x), 4)
-
-        return {"scenario": self.scenario, "robot": self.robot, "controller": self.controller, "ssm": self.ssm,
-                "min_distance_m": mm(m.min_distance_m), "min_distance_plain_m": mm(m.min_distance_plain_m),
-                "peak_ee_speed_m_s": mm(m.peak_ee_speed_m_s),
-                "completion_time_s": None if m.completion_time_s is None else round(m.completion_time_s, 3),
-                "stopped_time_s": round(m.stopped_time_s, 3), "stop_go_transitions": m.stop_go_transitions,
-                "max_ee_accel_m_s2": mm(m.max_ee_accel_m_s2)}
+        return {"scenario": self.scenario, "recording": self.recording, "robot": self.robot,
+                "controller": self.controller, "ssm": self.ssm, **self.metrics.as_dict()}
 
 
-def load_replay(scenario: str, replay_file: Path | None):
-    """The replay of ``replay_file`` (a recording or a ROS bag) or of the scenario's bundled one."""
+def load_replay(scenario: str, replay_file: Path | None, scanner: str = "corner"):
+    """``(replay, recording path)``: ``replay_file`` (a recording or a ROS bag) or the scenario's
+    bundled recording with the scanner at ``scanner``."""
     from cobotsafety.human.recording import bundled_recording
     from cobotsafety.human.replay import Replay
 
     # Paper 2's experiments find the legs with paper 2's rule (eqs. 2-3), as the paper did.
     if replay_file is None:
-        return Replay.from_file(bundled_recording(scenario), leg_method="paper")
+        path = bundled_recording(recording_name(scenario, scanner))
+        return Replay.from_file(path, leg_method="paper"), path
     if Path(replay_file).suffix in (".bag", ".mcap", ".db3") or Path(replay_file).is_dir():
-        return Replay.from_bag(replay_file, leg_method="paper")
-    return Replay.from_file(replay_file, leg_method="paper")
+        return Replay.from_bag(replay_file, leg_method="paper"), Path(replay_file)
+    return Replay.from_file(replay_file, leg_method="paper"), Path(replay_file)
 
 
-def experiment_arm_params(scenario: str, replayed: bool = False):
-    """The robot's settings in ``scenario``: paper 2's peak speed as the end-effector cap.
+def load_truth(recording_path: Path) -> TruthHuman | None:
+    """The ground truth beside a recording (``NAME_truth.npz``), or None."""
+    from cobotsafety.tools.generate_recording import truth_path
 
-    ``ArmParams.max_speed_m_s`` caps each axis of the command, so the end-effector may reach
-    ``sqrt(3)`` times it on a diagonal; the per-axis cap is the paper's peak / sqrt(3), rounded
-    down to 0.01 m/s (the null-space and orientation terms add a few mm/s). A ``--replay`` runs
-    experiment 1's task, hence its cap; the reach-over stress case keeps the filter's default.
-    """
-    from cobotsafety.arm.step import ArmParams
-
-    key = "exp1" if replayed else scenario
-    if key not in SCENARIO_MAX_SPEED_M_S:
-        return ArmParams()
-    return ArmParams(max_speed_m_s=SCENARIO_MAX_SPEED_M_S[key])
+    path = truth_path(Path(recording_path))
+    return TruthHuman.load(path) if path.is_file() else None
 
 
 def task_path(scenario: str, home_m: np.ndarray, duration_s: float, replayed: bool):
@@ -138,96 +192,80 @@ def task_path(scenario: str, home_m: np.ndarray, duration_s: float, replayed: bo
         return hold(home_m, until_s=duration_s)
     if scenario == "reach-over" and not replayed:
         return pick_and_place()
-    return paper_pick_and_place(home_m)
+    return paper_pick_and_place(home_m, speed_m_s=settings.TASK_SPEED_M_S)
 
 
-def run_approach(controller: str, ssm: bool = False, scenario: str = "exp1", robot: str = DEFAULT_ROBOT,
-                 replay_file: Path | None = None, capsules: str = "paper", dt_s: float = 1 / CONTROL_RATE_HZ,
-                 timeout_s: float = 90.0, duration_s: float | None = None, replay=None,
-                 arm_params=None, protected_m: float | None = None) -> ApproachRun:
-    """One run; ``duration_s`` cuts the run short (tests), ``replay`` reuses a loaded ``Replay``.
-    ``arm_params`` (default ``experiment_arm_params(scenario)``) and ``protected_m`` (the
-    distance the anticipative and stop controllers keep [m], default ``SCENARIO_PROTECTED_M``
-    of the scenario, exp1's for a ``--replay``, else ``PROTECTED_M``) are the experiment's settings."""
-    from cobotsafety.control.controllers import HumanAwareArm
-    from cobotsafety.control.human_constraint import HumanCapsulesConstraint
-    from cobotsafety.control.pi import AntiWindupPI
-    from cobotsafety.control.potential_field import PotentialFieldParams
+@dataclass
+class LoadedScenario:
+    """A replay, its truth and its shared human series, reused by every controller."""
 
-    replay = replay or load_replay(scenario, replay_file)
-    # The field's own d_cr also bounds its safety net; the others keep PROTECTED_M.
-    if protected_m is None:
-        protected_m = SCENARIO_PROTECTED_M.get("exp1" if replay_file is not None else scenario, PROTECTED_M)
-    critical_m = PAPER_CRITICAL_M if controller == "reactive" else protected_m
-    human = HumanCapsulesConstraint(critical_m=critical_m, activation_m=PAPER_ACTIVATION_M)
-    field = PotentialFieldParams(critical_m=PAPER_CRITICAL_M, influence_m=PAPER_ACTIVATION_M - PAPER_CRITICAL_M,
-                                 k_rep_m_s=PAPER_K_REP_M_S)
-    params = arm_params if arm_params is not None else experiment_arm_params(scenario, replay_file is not None)
-    arm = HumanAwareArm(robot, human=human, field=field, params=params)
-    arm.state.use_capsules(capsules)
-    state, skip = arm.state, human.skip_capsules
-    path = task_path(scenario, state.p_world_ee.copy(), replay.duration_s, replay_file is not None)
-    pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=TASK_SPEED_LIMIT_M_S)
-    body = replay.recording.body
+    scenario: str
+    recording_path: Path
+    replay: object
+    truth: TruthHuman | None
+    replayed: bool
+    humans: HumanSeries | None = None
+
+    def series(self, dt_s: float) -> HumanSeries:
+        if self.humans is None or self.humans.dt_s != dt_s:
+            r = self.replay
+            self.humans = HumanSeries(r.capsules_at, r.start_s, r.start_s + r.duration_s, dt_s)
+        return self.humans
+
+
+def load_scenario(scenario: str = "exp1", replay_file: Path | None = None, scanner: str = "corner") -> LoadedScenario:
+    replay, path = load_replay(scenario, replay_file, scanner)
+    return LoadedScenario(scenario, path, replay, load_truth(path), replay_file is not None)
+
+
+def run_approach(controller: str, ssm: str = "off", scenario: str = "exp1", robot: str = DEFAULT_ROBOT,
+                 replay_file: Path | None = None, capsules: str = "paper", dt_s: float = 1 / settings.CONTROL_RATE_HZ,
+                 timeout_s: float = 90.0, duration_s: float | None = None, loaded: LoadedScenario | None = None,
+                 scanner: str = "corner", **controller_settings) -> ApproachRun:
+    """One run; ``duration_s`` cuts it short (tests), ``loaded`` reuses a ``load_scenario``.
+    ``controller_settings`` (``critical_m``, ``activation_m``, ``k_rep_m_s``) override
+    ``approach_settings`` (tests that break a controller on purpose)."""
+    from cobotsafety.experiments import approach_step
+
+    loaded = loaded or load_scenario(scenario, replay_file, scanner)
+    ctrl = approach_step.make_controller(robot, controller, ssm, capsules, **controller_settings)
+    state = approach_step.state(ctrl)
+    path = task_path(loaded.scenario, state.p_world_ee.copy(), loaded.replay.duration_s, loaded.replayed)
     end_s = min(timeout_s, duration_s if duration_s is not None else np.inf)
-    log = {k: [] for k in ("t", "d", "plain", "p", "v", "v_att", "stopped", "torso")}
-    completion = None
-    t = 0.0
-    while t < end_s:
-        replay_t = replay.start_s + t
-        capsules_now = replay.capsules_at(replay_t) if t <= replay.duration_s else None
-        if capsules_now is not None and capsules_now.present:
-            arm.set_human(capsules_now)
-            log["torso"].append(0.5 * (capsules_now.p0_b_m[0, :2] + capsules_now.p1_b_m[0, :2]))
-        else:
-            arm.clear_human()  # nobody in range, or the recording is over: the human has left
-        p_ee = state.p_world_ee
-        target = path.advance(p_ee, dt_s)
-        v_att = pi.update(target - p_ee, dt_s)
-        result = arm.step(v_att, dt_s, controller, ssm)
-        t += dt_s
-        plain = np.inf
-        if capsules_now is not None and capsules_now.present:
-            plain = plain_distance_m(state.capsule_p0[skip:], state.capsule_p1[skip:], state.capsule_radius[skip:],
-                                     capsules_now, body)
-        for key, value in (("t", t), ("d", result.min_distance_m), ("plain", plain), ("p", result.report.p_base_ee_m),
-                           ("v", result.report.v_executed_m_s), ("v_att", v_att), ("stopped", result.report.stopped)):
-            log[key].append(value)
-        if path.finished and np.linalg.norm(state.p_world_ee - path.point(path.length_m)) < 0.01:
-            completion = t
-            break
-    metrics = run_metrics(dt_s, log["d"], log["plain"], log["v"], log["v_att"], log["stopped"], completion)
-    v = np.array(log["v"])
-    return ApproachRun(scenario, robot, controller, ssm, metrics, np.array(log["t"]), np.array(log["d"]),
-                       np.array(log["plain"]), np.array(log["p"]), np.linalg.norm(v, axis=1),
-                       np.array(log["torso"]).reshape(-1, 2), critical_m)
+    log = run_episode(ctrl, loaded.series(dt_s), loaded.replay.recording.body, path, dt_s, end_s,
+                      loaded.truth, loaded.replay.start_s)
+    return ApproachRun(loaded.scenario, str(loaded.recording_path.name), robot, controller, ssm,
+                       episode_metrics(log, dt_s, robot), log)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", choices=SCENARIOS, default="exp1",
                         help="paper 2's experiment 1 or 2, or the reach-over stress case (default exp1)")
+    parser.add_argument("--scanner", choices=SCANNERS, default="corner",
+                        help="the scanner at the table's corner (paper 2, default) or under its front edge")
     parser.add_argument("--robot", default=DEFAULT_ROBOT, help="robot name (default iiwa, paper 2's robot)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE",
                         help="replay this recording or ROS bag instead, with the pick-and-place task path")
     parser.add_argument("--controller", choices=CONTROLLERS, action="append",
                         help="controller(s) to run (default: all three)")
-    parser.add_argument("--ssm", action="store_true", help="add the ISO/TS 15066 speed-and-separation layer")
+    parser.add_argument("--ssm", choices=("off", "scaling", "stop"), default="off",
+                        help="ISO/TS 15066 SSM: speed scaling or the protective stop at S (default off)")
     parser.add_argument("--capsules", choices=["paper", "fitted"], default="paper",
                         help="robot capsule model (default: paper 2's three capsules)")
     parser.add_argument("--json", action="store_true", help="print a JSON list of result objects")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR", help="write PNG plots (Figs. 11, 12, 14) there")
-    parser.add_argument("--dt", type=float, default=1 / CONTROL_RATE_HZ,
-                        help=f"control period [s] (default 1/{CONTROL_RATE_HZ:.0f}, paper 2's robot update rate)")
+    parser.add_argument("--dt", type=float, default=1 / settings.CONTROL_RATE_HZ,
+                        help=f"control period [s] (default 1/{settings.CONTROL_RATE_HZ:.0f}, paper 2's robot update rate)")
 
 
 def run(args: argparse.Namespace) -> int:
     from cobotsafety.arm.robots import robot_spec
 
     robot_spec(args.robot)  # a clear error for an unknown robot before the replay loads
-    replay = load_replay(args.scenario, args.replay)
     if not (np.isfinite(args.dt) and 0 < args.dt <= 0.05):
         raise SystemExit(f"--dt must be in (0, 0.05] s, got {args.dt}")
-    runs = [run_approach(c, args.ssm, args.scenario, args.robot, args.replay, args.capsules, args.dt, replay=replay)
+    loaded = load_scenario(args.scenario, args.replay, args.scanner)
+    runs = [run_approach(c, args.ssm, args.scenario, args.robot, args.replay, args.capsules, args.dt, loaded=loaded)
             for c in (args.controller or CONTROLLERS)]
     written = []
     if args.out is not None:
@@ -242,5 +280,3 @@ def run(args: argparse.Namespace) -> int:
         if written:
             print("plots: " + ", ".join(str(p) for p in written))
     return 0
-
-

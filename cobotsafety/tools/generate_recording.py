@@ -18,7 +18,9 @@ pipeline must survive). Laser: range noise, single-beam dropouts and whole lost 
 
 The truth (``*_truth.npz``) holds, at 50 Hz: ``t_s`` (n,), ``p0_b_m``/``p1_b_m`` (n, 5, 3) and
 ``radius_m`` (5,) of the 5 capsules, ``names``, ``torso_xy_b_m`` (n, 2), ``legs_xy_b_m``
-(n, 2, 2), computed from the true torso and true IMU orientations with ``five_capsules``.
+(n, 2, 2), computed from the true torso and true IMU orientations with ``five_capsules``. A
+``Group`` (two people, ``scripted_people``) has 5 capsules per person (the IMU wearer's first)
+and ``torso_xy_b_m`` (n, people, 2); the others' legs are in the scans.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ IMU_GAP_S = (25.0, 25.4)  # forearm_left silent
 LEG_RADIUS_M = 0.06
 HIP_HALF_WIDTH_M = 0.10
 STRIDE_M = 1.2  # one gait cycle
+LEG_LOOKBACK_S = 0.01  # a scan's walking direction: the torso 10 ms earlier
 ROOM_M = ((-1.5, 4.0), (-2.5, 2.5))  # walls: x range, y range
 STOOL_LEGS_XY_M = ((1.05, -1.30), (1.35, -1.30), (1.05, -1.60), (1.35, -1.60))  # static clutter
 STOOL_LEG_RADIUS_M = 0.02
@@ -96,6 +99,12 @@ def legs_xy(scenario: Scenario, t: np.ndarray) -> np.ndarray:
     xy, heading, speed = scenario.torso_path(t)
     distance = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
     direction = np.gradient(xy, axis=0)
+    return _legs(xy, heading, speed, distance, direction)
+
+
+def _legs(xy, heading, speed, distance, direction) -> np.ndarray:
+    """Leg centres (n, 2, 2) from the torso (n, 2), heading, speed, walked distance (n,) and the
+    walking direction (n, 2) (unnormalised)."""
     norm = np.linalg.norm(direction, axis=1, keepdims=True)
     walk = np.where(norm > 1e-9, direction / np.maximum(norm, 1e-12), np.stack([np.cos(heading), np.sin(heading)], 1))
     side = np.stack([-walk[:, 1], walk[:, 0]], axis=1)
@@ -103,6 +112,19 @@ def legs_xy(scenario: Scenario, t: np.ndarray) -> np.ndarray:
     left = xy + HIP_HALF_WIDTH_M * side + stride[:, None] * walk
     right = xy - HIP_HALF_WIDTH_M * side - stride[:, None] * walk
     return np.stack([left, right], axis=1)
+
+
+def scan_legs_xy(scenario: Scenario, t: np.ndarray) -> np.ndarray:
+    """The legs the laser sees at each scan time t (n,): (n, 2, 2) [m], base frame, each from
+    the torso at ``t - LEG_LOOKBACK_S`` and ``t`` alone (so a scan depends only on its own
+    time: the same legs whatever other scans are made). The walked distance of that pair is
+    the gait's phase, as the bundled recordings were made (their feet barely alternate in the
+    laser: a known simplification; the truth's ``legs_xy`` strides over the whole walk)."""
+    xy_a, _, _ = scenario.torso_path(t - LEG_LOOKBACK_S)
+    xy_b, heading, _ = scenario.torso_path(t)
+    step = xy_b - xy_a
+    speed = np.linalg.norm(step / (t - (t - LEG_LOOKBACK_S))[:, None], axis=1)
+    return _legs(xy_b, heading, speed, np.linalg.norm(step, axis=1), step)
 
 
 def ray_circles(origin, directions, centres, radius) -> np.ndarray:
@@ -116,8 +138,9 @@ def ray_circles(origin, directions, centres, radius) -> np.ndarray:
     return hit.min(axis=1)
 
 
-def simulate_scan(scenario: Scenario, t: float, rng: np.random.Generator) -> np.ndarray:
-    """Ranges (271,) [m] at time t: legs, stool, walls; noise and dropouts (0 = no return)."""
+def simulate_scan(scenario: Scenario, t: float, rng: np.random.Generator, legs_b_m: np.ndarray | None = None) -> np.ndarray:
+    """Ranges (271,) [m] at time t: legs (``legs_b_m`` (k, 2) [m], default
+    ``scan_legs_xy(scenario, [t])``), stool, walls; noise and dropouts (0 = no return)."""
     origin = np.array(scenario.scanner_xy_m)
     angles = scenario.scanner_yaw_rad - LASER_FOV_RAD / 2 + np.arange(LASER_BEAMS) * LASER_FOV_RAD / (LASER_BEAMS - 1)
     d = np.stack([np.cos(angles), np.sin(angles)], axis=1)
@@ -127,7 +150,9 @@ def simulate_scan(scenario: Scenario, t: float, rng: np.random.Generator) -> np.
         ty = np.where(d[:, 1] > 0, (y1 - origin[1]) / d[:, 1], (y0 - origin[1]) / d[:, 1])
     ranges = np.minimum(np.abs(tx), np.abs(ty))
     ranges = np.minimum(ranges, ray_circles(origin, d, np.array(STOOL_LEGS_XY_M), STOOL_LEG_RADIUS_M))
-    ranges = np.minimum(ranges, ray_circles(origin, d, legs_xy(scenario, np.array([t - 0.01, t]))[1], LEG_RADIUS_M))
+    if legs_b_m is None:
+        legs_b_m = scan_legs_xy(scenario, np.array([t]))[0]
+    ranges = np.minimum(ranges, ray_circles(origin, d, legs_b_m, LEG_RADIUS_M))
     ranges = ranges + rng.normal(0.0, LASER_NOISE_M, LASER_BEAMS)
     ranges[(ranges > LASER_RANGE_M[1]) | (rng.random(LASER_BEAMS) < LASER_BEAM_DROPOUT)] = 0.0
     return ranges
@@ -139,9 +164,12 @@ def generate(scenario: Scenario | str = "reach-over", seed: int = 7) -> tuple[Re
     rng = np.random.default_rng(seed)
     duration_s = scenario.duration_s
     # Laser: 50 Hz, +-0.5 ms jitter, some scans lost.
-    laser_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ) + rng.uniform(-5e-4, 5e-4, int(duration_s * LASER_RATE_HZ))
+    laser_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ)
+    laser_t = laser_t + rng.uniform(-5e-4, 5e-4, laser_t.size)
     laser_t = np.round(laser_t[(rng.random(laser_t.size) >= LASER_SCAN_LOSS) & (laser_t > 0)], 6)
-    ranges = np.array([simulate_scan(scenario, t, rng) for t in laser_t])
+    others = tuple(getattr(scenario, "others", ()))  # a ``Group``: more people, seen by the laser only
+    legs = np.concatenate([scan_legs_xy(person, laser_t) for person in (scenario, *others)], axis=1)
+    ranges = np.array([simulate_scan(scenario, t, rng, legs[i]) for i, t in enumerate(laser_t)])
     # IMUs: each its own clock phase, reference heading and drift.
     imu_t, imu_q, calibration = {}, {}, {}
     for name in IMU_NAMES:
@@ -168,15 +196,29 @@ def generate(scenario: Scenario | str = "reach-over", seed: int = 7) -> tuple[Re
         description=f"{scenario.description} (generate_recording, seed {seed})",
     )
     truth_t = np.arange(0.0, duration_s, 1 / LASER_RATE_HZ)
-    rotations = body_orientations(scenario, truth_t)
-    xy, _, _ = scenario.torso_path(truth_t)
-    caps = [five_capsules(xy[i], Rotation.concatenate([r[i] for r in rotations]), BODY) for i in range(truth_t.size)]
+    p0, p1, radius, xy = true_capsules(scenario, truth_t)
     truth = {
         "t_s": truth_t, "names": np.array(CAPSULE_NAMES_5),
-        "p0_b_m": np.array([c.p0_b_m for c in caps]), "p1_b_m": np.array([c.p1_b_m for c in caps]),
-        "radius_m": caps[0].radius_m, "torso_xy_b_m": xy, "legs_xy_b_m": legs_xy(scenario, truth_t),
+        "p0_b_m": p0, "p1_b_m": p1, "radius_m": radius, "torso_xy_b_m": xy, "legs_xy_b_m": legs_xy(scenario, truth_t),
     }
+    if others:  # everyone's capsules, the first person's five first
+        more = [true_capsules(person, truth_t) for person in others]
+        truth["p0_b_m"] = np.concatenate([p0] + [m[0] for m in more], axis=1)
+        truth["p1_b_m"] = np.concatenate([p1] + [m[1] for m in more], axis=1)
+        truth["radius_m"] = np.concatenate([radius] + [m[2] for m in more])
+        truth["names"] = np.array(CAPSULE_NAMES_5 + tuple(f"{n} {i + 2}" for i in range(len(others)) for n in CAPSULE_NAMES_5))
+        truth["torso_xy_b_m"] = np.stack([xy] + [m[3] for m in more], axis=1)
     return recording, truth
+
+
+def true_capsules(person: Scenario, t: np.ndarray):
+    """The true five capsules of ``person`` at times t (n,): p0, p1 (n, 5, 3) [m], radius (5,) [m],
+    torso xy (n, 2) [m], from the true torso and true limb orientations with ``five_capsules``."""
+    rotations = body_orientations(person, t)
+    xy, _, _ = person.torso_path(t)
+    quats = np.stack([r.as_quat() for r in rotations], axis=1)  # (n, 5, 4), as stored: no renormalising
+    caps = [five_capsules(xy[i], Rotation(quats[i], normalize=False, copy=False), BODY) for i in range(t.size)]
+    return np.array([c.p0_b_m for c in caps]), np.array([c.p1_b_m for c in caps]), caps[0].radius_m, xy
 
 
 def truth_path(recording_path: Path) -> Path:

@@ -8,7 +8,12 @@ robot (+x), the human coming from +x. Each scenario gives, for times ``t`` (n,) 
   upper arm and forearm of ``side`` ("left"/"right") point along ``upper``/``fore`` with weight
   1 (blended with the walking swing by ``weight``).
 
-Three scenarios (``SCENARIOS``):
+Paper 2's two experiments come twice: with the scanner at the table's corner (``exp1-corner``,
+``exp2-corner``: paper 2's set-up, the same people and seed) and under its front edge (``exp1``,
+``exp2``, the first versions). ``draw_person(rng)`` draws a random person for the validation
+campaign (``cobotsafety.tools.campaign``); ``Group`` puts two people in one scene.
+
+Scenarios (``SCENARIOS``):
 
 * ``reach-over``: the stress case (the first bundled recording): the human walks to the table
   edge, torso ~0.6 m from the base, and reaches over the table into the robot's path.
@@ -23,7 +28,7 @@ Three scenarios (``SCENARIOS``):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -170,4 +175,130 @@ EXP2 = KeyframedHuman(
     keyframes=((0.0, 1.0, 3.0, -np.pi / 2), (1.0, 1.0, 3.0, -np.pi / 2), (8.0, 1.0, -3.3, -np.pi / 2)),
 )
 
-SCENARIOS = {"reach-over": ReachOver(), "exp1": EXP1, "exp2": EXP2}
+#: Paper 2's scanner: at the table's corner (as ``reach-over``'s), looking away from the table.
+PAPER_SCANNER_XY_M = ReachOver.scanner_xy_m
+PAPER_SCANNER_YAW_RAD = ReachOver.scanner_yaw_rad
+EXP1_CORNER = replace(EXP1, name="exp1-corner", scanner_xy_m=PAPER_SCANNER_XY_M, scanner_yaw_rad=PAPER_SCANNER_YAW_RAD,
+                      description=EXP1.description + "; scanner at the table corner")
+EXP2_CORNER = replace(EXP2, name="exp2-corner", scanner_xy_m=PAPER_SCANNER_XY_M, scanner_yaw_rad=PAPER_SCANNER_YAW_RAD,
+                      description=EXP2.description + "; scanner at the table corner")
+
+SCENARIOS = {"reach-over": ReachOver(), "exp1": EXP1, "exp2": EXP2, "exp1-corner": EXP1_CORNER,
+             "exp2-corner": EXP2_CORNER}
+
+
+@dataclass(frozen=True)
+class Group:
+    """Several people in one scene: the first wears the IMUs (its ``torso_path`` and ``reaches``
+    are the group's), the ``others`` are seen by the laser and are in the ground truth."""
+
+    name: str
+    duration_s: float
+    description: str
+    first: KeyframedHuman
+    others: tuple[KeyframedHuman, ...] = ()
+    scanner_xy_m: tuple[float, float] = PAPER_SCANNER_XY_M
+    scanner_yaw_rad: float = PAPER_SCANNER_YAW_RAD
+
+    def torso_path(self, t):
+        return self.first.torso_path(t)
+
+    def reaches(self, t, fwd, left, up) -> dict:
+        return self.first.reaches(t, fwd, left, up)
+
+
+#: The campaign's people (``draw_person``): where they come from, how fast, what they do.
+ENTRY_SIDES = {"front": (-35.0, 35.0), "left": (55.0, 110.0), "right": (-110.0, -55.0)}
+"""Entry directions [deg] from the robot base (x forward over the table, y left)."""
+START_DISTANCE_M = 2.6
+"""People start this far from the base, outside the scanner's 1.4 m clip."""
+PEAK_SPEED_M_S = (0.5, 2.1)
+"""Peak walking speed [m/s] (slow walk to a brisk one; ISO 13855 takes 1.6 m/s)."""
+STOP_DISTANCE_M = (0.55, 1.15)
+"""Where an approaching person stops: torso distance from the base [m] (inside the workspace)."""
+CROSS_DISTANCE_M = (0.6, 1.4)
+"""Closest torso distance from the base of a person walking past [m]."""
+PAUSE_S = (0.0, 3.0)
+REACH_TARGETS_M = {"arm": (0.40, 0.0, 0.55), "path": (0.50, -0.10, 0.20)}
+"""What a reaching person reaches for: the arm at its home (hand toward the elbow and wrist) or
+a point of its task path between the pick and the place poses (base frame [m])."""
+FACING_RAD_OFFSET = 0.0
+
+
+def _segment_s(a, b, peak_speed_m_s: float) -> float:
+    """Duration [s] of a smoothstep walk from a to b peaking at ``peak_speed_m_s`` (1.5 x the mean)."""
+    return max(1.5 * float(np.hypot(b[0] - a[0], b[1] - a[1])) / peak_speed_m_s, 0.3)
+
+
+def _reach_elevation_deg(torso_xy, target_m, body_chest_height_m: float = 0.6) -> float:
+    horizontal = float(np.hypot(target_m[0] - torso_xy[0], target_m[1] - torso_xy[1]))
+    return float(np.degrees(np.arctan2(target_m[2] - body_chest_height_m, horizontal)))
+
+
+def draw_walker(rng: np.random.Generator, name: str, delay_s: float = 0.0) -> tuple[KeyframedHuman, dict]:
+    """One random person and what was drawn (a dict of plain numbers and names)."""
+    side = str(rng.choice(list(ENTRY_SIDES)))
+    angle = np.radians(rng.uniform(*ENTRY_SIDES[side]))
+    start = START_DISTANCE_M * np.array([np.cos(angle), np.sin(angle)])
+    speed = float(rng.uniform(*PEAK_SPEED_M_S))
+    kind = "cross" if rng.random() < 0.35 else "approach"
+    t = delay_s
+    reaches: list[Reach] = []
+    drawn = {"side": side, "peak_speed_m_s": round(speed, 3), "kind": kind, "delay_s": round(delay_s, 3)}
+    if kind == "cross":
+        # Walk past the base at a drawn closest distance, leaving on the far side.
+        distance = float(rng.uniform(*CROSS_DISTANCE_M))
+        normal = np.array([np.cos(angle), np.sin(angle)])
+        tangent = np.array([-normal[1], normal[0]]) * rng.choice([-1.0, 1.0])
+        closest = distance * normal
+        end = closest + 2.4 * tangent
+        first = closest - 2.4 * tangent
+        heading = float(np.arctan2(tangent[1], tangent[0]))
+        keys = [(0.0, *first, heading)] + ([(t, *first, heading)] if t > 0 else [])
+        t += _segment_s(first, end, speed)
+        keys.append((t, *end, heading))
+        drawn.update(closest_torso_m=round(distance, 3))
+    else:
+        stop_distance = float(rng.uniform(*STOP_DISTANCE_M))
+        stop_angle = angle + rng.uniform(-0.5, 0.5)
+        stop = stop_distance * np.array([np.cos(stop_angle), np.sin(stop_angle)])
+        facing = float(np.arctan2(-stop[1], -stop[0]))  # faces the robot base
+        keys = [(0.0, *start, facing)] + ([(t, *start, facing)] if t > 0 else [])
+        t += _segment_s(start, stop, speed)
+        keys.append((t, *stop, facing))
+        pause = float(rng.uniform(*PAUSE_S))
+        reach = str(rng.choice(["none", "arm", "path"], p=[0.3, 0.35, 0.35]))
+        hold = float(rng.uniform(0.5, 2.0)) if reach != "none" else 0.0
+        if reach != "none":
+            target = REACH_TARGETS_M[reach]
+            arm_side = "right" if rng.random() < 0.5 else "left"
+            reaches.append(Reach(arm_side, (t, t + 0.8, t + 0.8 + hold, t + 1.6 + hold),
+                                 elevation_deg=_reach_elevation_deg(stop, target),
+                                 inward=float(rng.uniform(0.0, 0.3))))
+        t += pause + (1.6 + hold if reach != "none" else 0.0)
+        keys.append((t, *stop, facing))
+        exit_angle = angle + rng.uniform(-0.8, 0.8)
+        exit_point = START_DISTANCE_M * np.array([np.cos(exit_angle), np.sin(exit_angle)])
+        away = float(np.arctan2(exit_point[1] - stop[1], exit_point[0] - stop[0]))
+        keys.append((t + 0.6, *stop, away))  # turns to leave
+        t += 0.6 + _segment_s(stop, exit_point, speed)
+        keys.append((t, *exit_point, away))
+        drawn.update(stop_torso_m=round(stop_distance, 3), pause_s=round(pause, 3), reach=reach,
+                     reach_hold_s=round(hold, 3))
+    duration = t + 0.5
+    person = KeyframedHuman(name, duration, f"campaign person {name}", tuple(keys), tuple(reaches),
+                            scanner_xy_m=PAPER_SCANNER_XY_M, scanner_yaw_rad=PAPER_SCANNER_YAW_RAD)
+    return person, drawn
+
+
+def draw_person(rng: np.random.Generator, name: str, two_people_probability: float = 0.2) -> tuple[Group, dict]:
+    """A campaign scene: one random person, or two at once (``two_people_probability``), each
+    with its own entry side, speed, path, pause and reach (``draw_walker``)."""
+    first, drawn = draw_walker(rng, name)
+    others = ()
+    if rng.random() < two_people_probability:
+        second, drawn_second = draw_walker(rng, name + "-b", delay_s=float(rng.uniform(0.0, 3.0)))
+        others = (second,)
+        drawn = {**drawn, "second": drawn_second}
+    duration = max([first.duration_s] + [o.duration_s for o in others])
+    return Group(name, duration, f"campaign scene {name}", first, others), drawn

@@ -1,0 +1,49 @@
+"""``cobotsafety campaign``: a validation campaign over many drawn people (``cobotsafety.tools.campaign``).
+
+    cobotsafety campaign --robot iiwa [--robot panda] --controller all --people 1000 [--seed 0]
+        [--workers 2] [--ray ADDRESS|local] --out DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robot", action="append", required=True, help="robot name (repeat for several)")
+    parser.add_argument("--controller", default="all",
+                        help="anticipative, reactive (paper 2's field), stop, or all (default; the same people)")
+    parser.add_argument("--people", type=int, required=True, help="people drawn per robot")
+    parser.add_argument("--seed", type=int, default=0, help="campaign seed (default 0)")
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                        help="local worker processes, or Ray CPUs with --ray local (default 2)")
+    parser.add_argument("--ray", default=None, metavar="ADDRESS",
+                        help="run on a Ray cluster at ADDRESS ('local': start a local instance); needs the 'ray' extra")
+    parser.add_argument("--no-escape-check", action="store_true", help="skip the offline escape search of breaches")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="results, report.md and report.json")
+
+
+def run(args: argparse.Namespace) -> int:
+    from cobotsafety.arm.robots import robot_spec
+    from cobotsafety.tools.campaign.runner import CONTROLLERS, run_campaign
+
+    for robot in args.robot:
+        robot_spec(robot)
+    controllers = CONTROLLERS if args.controller == "all" else (args.controller,)
+    if any(c not in CONTROLLERS for c in controllers):
+        raise SystemExit(f"--controller must be one of {CONTROLLERS} or all, got {args.controller!r}")
+    if args.people < 1 or args.workers < 1:
+        raise SystemExit("--people and --workers must be at least 1")
+    if args.ray:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise SystemExit("--ray needs Ray: pip install 'cobotsafety[ray]'") from None
+    out = run_campaign(args.out, tuple(args.robot), controllers, args.people, args.seed, args.workers, args.ray,
+                       escape_check=not args.no_escape_check)
+    print(json.dumps(out["timing"]))
+    print(f"report: {args.out / 'report.md'}, {args.out / 'report.json'}")
+    return 0

@@ -1,0 +1,90 @@
+"""The settings of every human-approach run: paper 2's experiments, the stress case, the campaign.
+
+Fixed before any of the numbers they produce was measured (issue 24, item 1), the same for
+every scenario, robot and controller, each from the paper, from ISO/TS 15066's protective
+separation distance (``cobotsafety.control.ssm``) or from a stated principle; nothing here was
+chosen by looking at a result. Speeds the robot reaches are results, reported, never capped to
+match the paper.
+
+``S = v_h (T_r + T_s) + v_r T_r + B + C + Z_d + Z_r`` with ``SSM`` (v_h = 1.6 m/s from ISO
+13855, T_r = 0.1 s, C = 0, Z_d = 0.05 m, Z_r = 0.01 m, braking at 3 m/s^2: T_s = v_r / a,
+B = v_r^2 / 2a):
+
+* ``SPEED_LIMIT_M_S`` = 0.5 m/s per axis of the end-effector command: the arm step's default
+  (``ArmParams.max_speed_m_s``) since the first session, before any human experiment existed;
+  the end-effector may reach ``ROBOT_SPEED_MAX_M_S`` = sqrt(3) x 0.5 = 0.87 m/s on a diagonal.
+  Paper 2 gives no speed limit (its 355 / 548 mm/s are measured peaks, compared as results).
+* ``CRITICAL_M`` = S without its stopping terms at that speed: v_h T_r + v_r T_r + C + Z_d + Z_r
+  = 0.16 + 0.087 + 0.06 = 0.307 m. The distance every controller is told to keep (the
+  anticipative filter's and the stop baseline's critical distance, the field's ``d_cr``):
+  they act at every control step on the current human (the filter retreats with the human's
+  measured velocity, the stop baseline halts the command within the step), so what they cannot
+  see is one reaction time of both movements plus the margins. A *breach* is a true (ground
+  truth) separation below it.
+* ``ACTIVATION_M`` = S at that speed with the stopping terms = 0.894 m: where a robot that only
+  stops would have to start braking; the field's ``d_cr + d_o`` and the filter's activation.
+* ``K_REP_M_S`` = ``SPEED_LIMIT_M_S``: the field's repulsion (eq. 18, ``k_rep (d_o / (d - d_cr)
+  - 1)``) equals the arm's speed limit at the middle of its band, ``d = d_cr + d_o / 2``.
+* ``TASK_SPEED_M_S`` = 0.12 m/s along the task path (paper 2 gives no task speed; slow next to
+  the limit, so the peaks are the evasions), ``ATTRACTION_LIMIT_M_S`` = ``SPEED_LIMIT_M_S`` for
+  the PI's saturation (eq. 15).
+* ``CONTROL_RATE_HZ`` = 275 Hz (paper 2's robot update rate).
+* SSM's protective stop (``--ssm stop``) brakes at the smaller of the step's 3 m/s^2 and the
+  deceleration the robot's joint acceleration limits allow at its home pose
+  (``ssm.braking_deceleration_m_s2``; limits from ``joint_acceleration_limits``).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from cobotsafety.control.ssm import SsmParams, protective_separation_m
+
+SSM = SsmParams()
+SPEED_LIMIT_M_S = 0.5
+ROBOT_SPEED_MAX_M_S = math.sqrt(3.0) * SPEED_LIMIT_M_S
+CRITICAL_M = float(SSM.human_speed_m_s * SSM.reaction_time_s + ROBOT_SPEED_MAX_M_S * SSM.reaction_time_s
+                   + SSM.margin_m)
+ACTIVATION_M = float(protective_separation_m(ROBOT_SPEED_MAX_M_S, SSM))
+K_REP_M_S = SPEED_LIMIT_M_S
+TASK_SPEED_M_S = 0.12
+ATTRACTION_LIMIT_M_S = SPEED_LIMIT_M_S
+CONTROL_RATE_HZ = 275.0
+
+#: Joint acceleration limits [rad/s^2] used until the motion-limits table (issue 20,
+#: ``cobotsafety.arm.motion_limits``) is on this branch. Panda: Franka's published limits. iiwa: KUKA publishes none; "a few rad/s^2"
+#: (5 on every joint) is an assumption, stated wherever it is used.
+FALLBACK_JOINT_ACCEL_RAD_S2 = {
+    "panda": (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
+    "iiwa": (5.0,) * 7,
+}
+
+
+@lru_cache(maxsize=None)
+def joint_acceleration_limits(robot: str) -> tuple[np.ndarray, str]:
+    """``(limits (nv,) [rad/s^2], source)``: from the motion-limits table
+    (``cobotsafety.arm.motion_limits.load_motion_limits``, issue 20) once it is on this branch,
+    else ``FALLBACK_JOINT_ACCEL_RAD_S2`` (source ``"assumed"``)."""
+    try:
+        from cobotsafety.arm.motion_limits import load_motion_limits
+    except ImportError:
+        load_motion_limits = None
+    if load_motion_limits is not None:
+        from cobotsafety.arm.robots import load_robot
+
+        model, _, _ = load_robot(robot)
+        names = [model.names[j] for j in range(1, model.njoints)]
+        return np.asarray(load_motion_limits(robot, names).acceleration_rad_s2, dtype=float), "robot_limits.toml"
+    if robot not in FALLBACK_JOINT_ACCEL_RAD_S2:
+        raise KeyError(f"no joint acceleration limits for robot {robot!r}")
+    return np.asarray(FALLBACK_JOINT_ACCEL_RAD_S2[robot], dtype=float), "assumed"
+
+
+def as_dict() -> dict:
+    """The settings in a JSON report."""
+    return {"speed_limit_per_axis_m_s": SPEED_LIMIT_M_S, "critical_m": round(CRITICAL_M, 4),
+            "activation_m": round(ACTIVATION_M, 4), "k_rep_m_s": K_REP_M_S, "task_speed_m_s": TASK_SPEED_M_S,
+            "control_rate_hz": CONTROL_RATE_HZ}

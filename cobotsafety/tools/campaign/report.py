@@ -1,0 +1,107 @@
+"""The campaign's summary: one object per robot x controller (``summarise``), the Markdown
+report with histograms (``write_report``).
+
+Breach: a true minimum separation below the critical distance (``approach_settings.CRITICAL_M``).
+Its rate's 95 % upper bound is the one-sided Clopper-Pearson bound (``clopper_pearson_upper``:
+the beta quantile; 0 of N gives 1 - 0.05^(1/N), about 3/N).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_95", "breaches_with_escape",
+               "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
+               "max_joint_acceleration_ratio")
+
+
+def clopper_pearson_upper(breaches: int, people: int, confidence: float = 0.95) -> float:
+    """One-sided upper bound of a binomial rate with ``breaches`` of ``people`` at ``confidence``."""
+    from scipy.stats import beta
+
+    if people <= 0:
+        return 1.0
+    if breaches >= people:
+        return 1.0
+    return float(beta.ppf(confidence, breaches + 1, people - breaches))
+
+
+def summarise(results: list[dict]) -> list[dict]:
+    """``REPORT_KEYS`` per (robot, controller) over the per-person results."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in results:
+        groups.setdefault((r["robot"], r["controller"]), []).append(r)
+    out = []
+    for (robot, controller), rows in sorted(groups.items()):
+        true = np.array([r["true_min_distance_m"] for r in rows if r["true_min_distance_m"] is not None], float)
+        breaches = sum(bool(r["breach"]) for r in rows)
+        lost = np.array([r["time_lost_s"] for r in rows if r["time_lost_s"] is not None], float)
+        out.append({
+            "robot": robot, "controller": controller, "people": len(rows), "breaches": breaches,
+            "breach_rate_upper_95": round(clopper_pearson_upper(breaches, len(rows)), 6),
+            "breaches_with_escape": sum(r["escape_exists"] is True for r in rows),
+            "median_true_min_distance_m": round(float(np.median(true)), 4) if true.size else None,
+            "p05_true_min_distance_m": round(float(np.percentile(true, 5)), 4) if true.size else None,
+            "completion_rate": round(sum(bool(r["completed"]) for r in rows) / len(rows), 4),
+            "median_time_lost_s": round(float(np.median(lost)), 4) if lost.size else None,
+            "max_joint_acceleration_ratio": round(max(r["max_joint_acceleration_ratio"] for r in rows), 4),
+        })
+    return out
+
+
+def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[dict]:
+    """``out_dir/report.json`` (``summarise``), ``out_dir/report.md`` and one histogram PNG per robot."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cobotsafety.experiments import approach_settings as settings
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    summary = summarise(results)
+    (out_dir / "report.json").write_text(json.dumps(summary, indent=1) + "\n")
+    lines = ["# Validation campaign", "", header, "",
+             f"Critical distance {settings.CRITICAL_M:.3f} m (a breach: the true separation below it); "
+             f"settings: {json.dumps(settings.as_dict())}.", "",
+             "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | median true min | "
+             "p05 true min | completion | median time lost | max joint accel ratio |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
+    for s in summary:
+        lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
+                     f"{s['breach_rate_upper_95']:.4f} | {s['breaches_with_escape']} | "
+                     f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
+                     f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
+                     f"{s['max_joint_acceleration_ratio']:.2f} |")
+    lines += ["", "Breaches by what the person did (kind / reach):", ""]
+    by_kind: dict[tuple, list[int]] = {}
+    for r in results:
+        d = r["drawn"]
+        key = (r["robot"], r["controller"], d["kind"] + ("/" + d.get("reach", "") if d["kind"] == "approach" else "")
+               + (" +1" if "second" in d else ""))
+        by_kind.setdefault(key, [0, 0])
+        by_kind[key][0] += bool(r["breach"])
+        by_kind[key][1] += 1
+    lines += ["| robot | controller | person | breaches / people |", "|---|---|---|---|"]
+    lines += [f"| {k[0]} | {k[1]} | {k[2]} | {v[0]} / {v[1]} |" for k, v in sorted(by_kind.items())]
+    for robot in sorted({s["robot"] for s in summary}):
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for s in summary:
+            if s["robot"] != robot:
+                continue
+            values = [r["true_min_distance_m"] for r in results
+                      if r["robot"] == robot and r["controller"] == s["controller"] and r["true_min_distance_m"] is not None]
+            ax.hist(np.array(values) * 1000, bins=30, histtype="step", label=s["controller"])
+        ax.axvline(settings.CRITICAL_M * 1000, color="r", ls="--", lw=0.8, label="critical distance")
+        ax.set(xlabel="true minimum distance [mm]", ylabel="people", title=f"{robot}: true minimum distance per person")
+        ax.legend(fontsize=8)
+        png = out_dir / f"histogram_{robot}.png"
+        fig.savefig(png, dpi=100, bbox_inches="tight")
+        plt.close(fig)
+        lines += ["", f"![{robot}]({png.name})"]
+    (out_dir / "report.md").write_text("\n".join(lines) + "\n")
+    return summary

@@ -1,0 +1,140 @@
+"""The validation campaign: the people drawn (deterministic per seed, within the stated ranges),
+Clopper-Pearson against statsmodels and the closed form, the escape search, and a tiny campaign:
+the report's keys, resumption, determinism, and the same results on a local Ray instance."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cobotsafety.tools.campaign.escape import escape_exists
+from cobotsafety.tools.campaign.person_run import draw_scene
+from cobotsafety.tools.campaign.report import REPORT_KEYS, clopper_pearson_upper
+from cobotsafety.tools.campaign.runner import result_path, run_campaign
+
+
+def test_clopper_pearson_against_statsmodels_and_the_zero_breach_closed_form():
+    from statsmodels.stats.proportion import proportion_confint
+
+    for k, n in ((0, 10), (3, 50), (17, 1000), (0, 1000), (999, 1000)):
+        # One-sided 95 % = the upper end of the two-sided 90 % interval.
+        _, upper = proportion_confint(k, n, alpha=0.10, method="beta")
+        assert clopper_pearson_upper(k, n) == pytest.approx(upper, rel=1e-9)
+    assert clopper_pearson_upper(0, 1000) == pytest.approx(1 - 0.05 ** (1 / 1000), rel=1e-9)
+    assert clopper_pearson_upper(0, 1000) == pytest.approx(3 / 1000, rel=0.01)
+    assert clopper_pearson_upper(5, 5) == 1.0
+
+
+def test_people_are_drawn_deterministically_within_the_stated_ranges():
+    scenes = [draw_scene(i, 11) for i in range(200)]
+    again = draw_scene(7, 11)
+    assert again[1] == scenes[7][1] and again[2] == scenes[7][2]
+    assert scenes[8][1] != scenes[7][1] and draw_scene(7, 12)[1] != scenes[7][1]
+    drawn = [d for _, d, _ in scenes]
+    speeds = np.array([d["peak_speed_m_s"] for d in drawn])
+    assert speeds.min() >= 0.5 and speeds.max() <= 2.1 and speeds.max() - speeds.min() > 1.3
+    assert {d["side"] for d in drawn} == {"front", "left", "right"}
+    assert {d["kind"] for d in drawn} == {"cross", "approach"}
+    assert {d.get("reach") for d in drawn if d["kind"] == "approach"} == {"none", "arm", "path"}
+    two = sum("second" in d for d in drawn)
+    assert 20 <= two <= 60  # 0.2 of 200
+    for scene, d, _ in scenes[:20]:  # the walked speeds follow the drawn peaks (smoothstep: 1.5 x mean)
+        t = np.arange(0.0, scene.duration_s, 0.01)
+        xy, _, speed = scene.first.torso_path(t)
+        assert speed.max() == pytest.approx(d["peak_speed_m_s"], rel=0.05)
+
+
+class _ApproachingHuman:
+    """A torso closing in on a point from +y at ``speed`` [m/s], stopping ``stop_gap_m`` short of it."""
+
+    def __init__(self, target, start_gap_m, stop_gap_m, speed_m_s, radius_m=0.15):
+        self.t_s = np.arange(0.0, 4.0, 0.02)
+        gap = np.maximum(start_gap_m - speed_m_s * self.t_s, stop_gap_m)
+        centre = np.asarray(target) + np.outer(gap, [0.0, 1.0, 0.0])
+        self.p0_b_m = (centre + [0, 0, -0.3])[:, None]
+        self.p1_b_m = (centre + [0, 0, 0.3])[:, None]
+        self.radius_m = np.array([radius_m])
+
+
+def _truth(human):
+    from cobotsafety.experiments.approach_truth import TruthHuman
+
+    return TruthHuman(human.t_s, human.p0_b_m, human.p1_b_m, human.radius_m)
+
+
+def test_the_separation_gradient_matches_finite_differences():
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    rng = np.random.default_rng(4)
+    q = kin.state.q.copy() + rng.normal(scale=0.2, size=kin.state.nv)
+    p = kin.capsules(q)[1][-1] + [0.1, 0.45, -0.05]
+    human = (np.array([p + [0, 0, -0.3]]), np.array([p + [0, 0, 0.3]]), np.array([0.15]))
+    d, grad = kin.separation(q, *human)
+    h = 1e-6
+    numeric = [(kin.separation(q + h * e, *human)[0] - kin.separation(q - h * e, *human)[0]) / (2 * h)
+               for e in np.eye(len(q))]
+    np.testing.assert_allclose(grad, numeric, atol=1e-5)
+
+
+def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
+    from cobotsafety.arm.robot_state import RobotState
+
+    state = RobotState("iiwa", capsules="paper")
+    q_home, p_ee = state.q.copy(), state.p_world_ee.copy()
+    # The human walks at the hand and stops 0.1 m from its axis: inside the critical distance
+    # of a robot that stays, avoidable by moving the hand away.
+    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    found = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1)
+    assert found.exists and found.best_min_distance_m >= 0.1
+    # A human standing on the robot's shoulder leaves no escape.
+    shoulder = state.capsule_p0[1] + [0.0, 0.0, 0.1]
+    trapped = _truth(_ApproachingHuman(shoulder, 0.2, 0.0, 0.5))
+    assert not escape_exists("iiwa", held, t, 1.5, trapped, 0.0, critical_m=0.1).exists
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("campaign")
+    first = run_campaign(out, ("iiwa",), ("stop",), people=2, seed=5, workers=1, escape_check=False, progress=False)
+    return out, first
+
+
+def test_a_tiny_campaign_reports_every_key(tiny):
+    out, first = tiny
+    (row,) = json.loads((out / "report.json").read_text())
+    assert set(row) == set(REPORT_KEYS)
+    assert (row["robot"], row["controller"], row["people"]) == ("iiwa", "stop", 2)
+    assert row["breach_rate_upper_95"] == pytest.approx(clopper_pearson_upper(row["breaches"], 2))
+    assert (out / "report.md").read_text().count("| iiwa | stop |") >= 1 and (out / "histogram_iiwa.png").exists()
+    assert first["timing"]["tasks_run"] == 2
+
+
+def test_the_campaign_resumes_and_is_deterministic(tiny):
+    out, _ = tiny
+    files = {p: p.read_bytes() for p in (result_path(out, "iiwa", "stop", i) for i in range(2))}
+    again = run_campaign(out, ("iiwa",), ("stop",), people=2, seed=5, workers=1, escape_check=False, progress=False)
+    assert again["timing"]["tasks_run"] == 0  # nothing re-run
+    victim = result_path(out, "iiwa", "stop", 1)
+    victim.unlink()
+    redo = run_campaign(out, ("iiwa",), ("stop",), people=2, seed=5, workers=1, escape_check=False, progress=False)
+    assert redo["timing"]["tasks_run"] == 1
+    assert {p: p.read_bytes() for p in files} == files  # the same bytes: deterministic per seed
+
+
+def test_a_tiny_campaign_on_a_local_ray_instance_gives_the_same_results(tiny, tmp_path):
+    import ray
+    out, _ = tiny
+    try:  # the runner starts the local instance: ray.init(num_cpus=2) on 127.0.0.1
+        result = run_campaign(tmp_path, ("iiwa",), ("stop",), people=2, seed=5, workers=2, ray_address="local",
+                              escape_check=False, progress=False)
+        assert ray.is_initialized() and ray.cluster_resources()["CPU"] == 2
+    finally:
+        ray.shutdown()
+    assert result["timing"]["tasks_run"] == 2
+    for i in range(2):
+        assert result_path(tmp_path, "iiwa", "stop", i).read_bytes() == result_path(out, "iiwa", "stop", i).read_bytes()
