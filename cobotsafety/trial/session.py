@@ -111,11 +111,11 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
             goal = np.array([target[0], target[1], course.height_m])
         else:
             goal = target
-        v = participant.command(t, p[:robot.dim], goal[:robot.dim], divided)
+        v = participant.command(t, p[:robot.dim], goal[:robot.dim], divided, route=run.next_target)
         report = robot.step(v, dt_s, condition)
         t += dt_s
         moving = bool(np.linalg.norm(report.v_executed_m_s) > 1e-3)
-        participant.observe(t, moving)
+        participant.observe(t, moving, slid=moving and bool(report.binding))
         run.update(t, report.p_base_ee_m, moving=moving)
         shown = run.tick_colour(t)
         if shown is not None:
@@ -124,4 +124,5 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
             answer = participant.colour_response(t)
             if answer is not None:
                 run.colour.answer(t, answer)
+    participant.finish_trial()
     return run, np.array(run.trajectory).reshape(-1, 4)
