@@ -96,4 +96,4 @@ def test_wrong_token_is_refused_and_cleared(server):
     assert token.value == "" and "wrong token" in feedback.content.lower()
     token.value = server.token
     callback(None)
-    assert client.gui.add_folder.call_args_list[-1][0][0] == "Operator panel"
+    assert [c[0][0] for c in client.gui.add_folder.call_args_list[-2:]] == ["Trial", "Session"]
