@@ -88,12 +88,14 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               f"{SLIDING_POINTS_PER_WORD:.3f} points per word, at 1 point each"),
     Parameter("colour_miss_rate", 0.0105, 0.0105, "-", "calibrated",
               "missed words: the other half of the paper's sliding points per word, at 2 points each"),
-    Parameter("load_miss_rate", 0.30, 0.30, "-", "calibrated",
+    Parameter("load_miss_rate", 0.43, 0.43, "-", "calibrated",
               "probability to miss a word shown while loaded (handling a stopped robot, or steering "
-              "round a remembered limit): set so the simulated stop condition loses about the paper's "
-              f"{-PAPER_STOP_DIVIDED_SCORE} points in divided attention (docs/study_model.md)"),
+              "round a remembered limit): set so that, in divided attention, stop loses "
+              f"{-(PAPER_STOP_DIVIDED_SCORE / (PAPER_STOP_DIVIDED_TIME_S / COLOUR_PERIOD_S)) - SLIDING_POINTS_PER_WORD:.3f} "
+              "more points per colour word than sliding, as in the paper (interpolated between 20-person "
+              "simulations at 0.3 and 0.6: docs/study_model.md)"),
     Parameter("load_rt_slowdown", 0.25, 0.25, "-", "assumption",
-              "answers to words shown while handling a stopped robot take this fraction longer"),
+              "answers to words shown while loaded take this fraction longer (the paper gives no response times)"),
 )}
 
 SOURCES = ("paper", "calibrated", "assumption")
