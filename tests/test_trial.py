@@ -79,7 +79,8 @@ def test_a_session_killed_mid_way_loses_nothing_already_finished(tmp_path):
 def write_paper_like_logs(directory, seed=0, participants=10, learning=0.0):
     """Completion times drawn from the paper's own means and SDs, n = 10 per condition; error
     scores from Poisson(4.7) and Poisson(0.9) wrong answers in divided attention. Orders are
-    counterbalanced; ``learning`` makes each participant's second trial of a mode that much faster."""
+    counterbalanced (conditions and attention modes); ``learning`` makes each participant's second
+    trial of a mode that much faster."""
     rng = np.random.default_rng(seed)
     store = LogStore(directory)
     stats = {("full", "stop"): (40.0, 6.3), ("full", "anticipative"): (31.9, 3.8),
@@ -88,7 +89,8 @@ def write_paper_like_logs(directory, seed=0, participants=10, learning=0.0):
         first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
         for (attention, condition), (mean, sd) in stats.items():
             second = first.index(condition) == 1
-            order = (0 if attention == "full" else 2) + 1 + second
+            full_first = (i // 2) % 2 == 0  # attention order counterbalanced in pairs, as the plan does
+            order = (0 if (attention == "full") == full_first else 2) + 1 + second
             time_s = float(rng.normal(mean, sd)) * (1.0 - learning * second)
             wrong = int(rng.poisson(4.7 if condition == "stop" else 0.9)) if attention == "divided" else 0
             errors = [{"kind": "wrong", "t_s": 1.0 + 2.0 * k, "points": -1} for k in range(wrong)]

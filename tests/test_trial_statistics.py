@@ -100,6 +100,26 @@ def test_ties_get_the_exact_conditional_p_by_enumeration_not_the_normal_approxim
             assert mann_whitney_test(a, b, tail).p == pytest.approx(ref)
 
 
+def test_exact_p_with_ties_equals_scipys_full_permutation_test():
+    from scipy.stats import permutation_test
+
+    rng = np.random.default_rng(12)
+    for _ in range(3):
+        a, b = rng.integers(-4, 1, 10).astype(float), rng.integers(-6, 1, 10).astype(float)
+        ranks = rankdata(np.concatenate([a, b]))
+        ref = permutation_test((ranks[:10], ranks[10:]), lambda x, y, axis=-1: np.sum(x, axis=axis),
+                               permutation_type="independent", alternative="greater", n_resamples=np.inf,
+                               vectorized=True).pvalue
+        assert mann_whitney_test(a, b, "greater").p == pytest.approx(ref, rel=1e-9)
+        d = np.round(rng.normal(0.5, 2.0, 12))
+        d = d[d != 0]
+        signed = rankdata(np.abs(d)) * np.sign(d)
+        ref = permutation_test((signed,), lambda s, axis=-1: np.sum(np.where(s > 0, s, 0), axis=axis),
+                               permutation_type="samples", alternative="less", n_resamples=np.inf,
+                               vectorized=True).pvalue
+        assert signed_rank_test(d, np.zeros_like(d), "less").p == pytest.approx(ref, rel=1e-9)
+
+
 def test_signed_rank_w_and_exact_p_by_enumeration_with_and_without_ties():
     rng = np.random.default_rng(5)
     for ties in (False, True):

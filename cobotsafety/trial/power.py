@@ -87,15 +87,19 @@ PAPER_DIVIDED_SCORES = {"stop": -4.7, "anticipative": -0.9}
 
 
 def paper_study(participants: int, seed: int) -> list[dict]:
-    """Records of one study drawn from the paper's numbers (orders alternate AB / BA)."""
+    """Records of one study drawn from the paper's numbers, in ``plan.session_plan``'s
+    counterbalanced orders (conditions and attention modes)."""
+    from cobotsafety.trial.plan import session_plan  # noqa: PLC0415
+
     rng = np.random.default_rng(seed)
+    ids = [f"P{i + 1:02d}" for i in range(participants)]
+    order = {(t.participant, t.attention, t.condition): t.order for t in session_plan(ids, seed=seed)}
     records = []
-    for i in range(participants):
-        first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
+    for participant in ids:
         for (attention, condition), (mean, sd) in PAPER_TIMES_S.items():
             lost = int(rng.poisson(-PAPER_DIVIDED_SCORES[condition])) if attention == "divided" else 0
-            records.append({"participant": f"P{i + 1:02d}", "condition": condition, "attention": attention,
-                            "order": (1 if attention == "full" else 3) + first.index(condition),
+            records.append({"participant": participant, "condition": condition, "attention": attention,
+                            "order": order[participant, attention, condition],
                             "completion_time_s": float(rng.normal(mean, sd)),
                             "errors": [{"kind": "wrong", "t_s": 0.0, "points": -1}] * lost})
     return records
