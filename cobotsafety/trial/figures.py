@@ -97,7 +97,12 @@ def interaction_panel(ax, t: dict) -> None:
             means.append(np.exp(m))
         ax.errorbar(xs + shift, means, yerr=np.array(errs).T, color=COLOURS[condition], marker="o", ms=7, lw=2,
                     capsize=5, zorder=3, label=f"{NAMES[condition]}: geometric mean (95 % CI), n = {len(ids)}")
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter  # noqa: PLC0415
+
     ax.set_yscale("log")
+    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0)))
+    ax.yaxis.set_major_formatter(ScalarFormatter())
+    ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_xticks(xs, ["full attention", "divided attention"])
     ax.set_xlim(-0.4, 1.4)
     ax.set_ylabel("completion time [s] (log axis)")
