@@ -96,4 +96,107 @@ def test_wrong_token_is_refused_and_cleared(server):
     assert token.value == "" and "wrong token" in feedback.content.lower()
     token.value = server.token
     callback(None)
-    assert client.gui.add_folder.call_args_list[-1][0][0] == "Operator panel"
+    assert [c[0][0] for c in client.gui.add_folder.call_args_list[-2:]] == ["Trial", "Session"]
+
+
+def test_start_next_never_discards_a_trial_in_progress(server):
+    trial = server.start_next()
+    drive_to(server, server.course.targets_m[0])
+    run = server.current[1]
+    assert run.next_target == 1
+    assert server.start_next() is None  # refused while running
+    assert server.current[1] is run and run.next_target == 1  # progress kept
+    assert "Refused" in server.status and "Abort it first" in server.status
+    assert server.repeat_last() is None and server.current[1] is run
+    server.abort()
+    assert server.start_next() is None  # the next trial is the one just aborted: not restarted silently
+    assert "Repeat restarts it" in server.status and "Skip" in server.status
+    again = server.repeat_last()  # the operator's explicit choice
+    assert again == trial and server.current[1].next_target == 0
+
+
+def test_a_trial_the_participant_cannot_finish_is_skipped_with_the_reason_logged(server, tmp_path):
+    from cobotsafety.trial.analysis import analyze
+    from cobotsafety.trial.log_store import load
+
+    trial = server.start_next()
+    drive_to(server, server.course.targets_m[0])
+    assert server.skip("   ") is None and server.current is not None  # a reason is required
+    assert "reason" in server.status
+    assert server.skip("participant felt unwell\nstopped") == trial
+    assert server.current is None and "Skipped" in server.status
+    records = load(server.store.directory).records
+    assert len(records) == 1
+    record = records[0]
+    assert record["skipped"] is True and record["skip_reason"] == "participant felt unwell stopped"
+    assert record["targets_reached"] == 1 and record["completion_time_s"] is None
+    nxt = server.start_next()  # the plan goes on
+    assert nxt is not None and nxt != trial
+    server.abort()
+    assert server.skip("fire alarm") == nxt  # an aborted trial can be skipped too
+    assert "participant felt unwell stopped" in analyze(server.store.directory)
+
+
+def test_answers_aloud_are_judged_in_the_operator_view_and_logged(server):
+    from unittest import mock
+
+    assert server.answer_buttons == []  # aloud: no answer buttons on the participant's page
+    client = mock.MagicMock()
+    server._make_operator_panel(client)
+    panel = server._operator_panels[-1]
+    trial = next(t for t in server.plan if t.attention == "divided")
+    server.start(trial)
+    drive_to(server, server.course.targets_m[0])
+    run = server.current[1]
+    server.render_once()
+    stimulus = run.colour.current
+    assert stimulus.word.upper() in panel.word.content and stimulus.ink in panel.word.content
+    assert all(button.visible for button in panel.verdicts)
+    assert server.judge("right")
+    assert stimulus.answer == stimulus.ink and stimulus.judged_by == "operator"
+    assert not server.judge("wrong")  # the first judgement counts
+    for target in server.course.targets_m[1:]:
+        drive_to(server, target)
+    server.render_once()
+    record = next(r for r in __import__("cobotsafety.trial.log_store", fromlist=["load"]).load(
+        server.store.directory).records if r["attention"] == "divided")
+    judged = [s for s in record["stimuli"] if s["judged_by"] == "operator"]
+    assert judged and judged[0]["answer"] == judged[0]["ink"] and record["answers"] == "aloud"
+
+
+def test_the_operator_view_shows_the_participants_scene_and_progress(server):
+    from unittest import mock
+
+    view = server.operator_view
+    assert view.server is server.operator_server
+    assert len(server.operator_course_nodes.targets) == len(server.course.targets_m)
+    client = mock.MagicMock()
+    server._make_operator_panel(client)
+    panel = server._operator_panels[-1]
+    server.start_next()
+    drive_to(server, server.course.targets_m[0])
+    server.render_once()
+    assert np.allclose(view.ee.position, server.teleop.p_base_ee_m, atol=1e-9)  # the mirror follows the robot
+    assert "target 2 of 6" in panel.progress.content
+    assert server.operator_course_nodes.targets[1].color == (40, 160, 40)  # the next target, as the participant sees
+
+
+def test_an_input_device_drives_only_while_a_trial_runs(tmp_path):
+    from cobotsafety.app.input_device import ScriptedDevice
+
+    device = ScriptedDevice([(1.0, 0.0, 0.0)])
+    trial_server = TrialServer(tmp_path, ["P01"], seed=2, port=free_local_port(), device=device)
+    try:
+        feeder = trial_server.device_feeder
+        feeder.poll_once()
+        assert trial_server.loop.desired_velocity() == pytest.approx([0.0, 0.0])  # no trial: ignored
+        trial_server.start_next()
+        feeder.poll_once()
+        assert trial_server.loop.desired_velocity()[0] > 0.2
+        start = trial_server.teleop.p_base_ee_m.copy()
+        for _ in range(300):
+            trial_server.loop.step_once()
+        assert trial_server.teleop.p_base_ee_m[0] > start[0] + 0.02
+        assert trial_server.current[1].started_s is not None  # the trial started at the device's first motion
+    finally:
+        trial_server.stop()

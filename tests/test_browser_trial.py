@@ -1,6 +1,8 @@
 """The browser trial: the participant view never reveals the condition and shows no operator box;
-the operator view (its own URL) unlocks only with the token, says when a token is wrong, and its
-plan follows Start, Abort and Repeat; the colour word appears only once the trial has started."""
+the operator view (its own URL) unlocks only with the token, says when a token is wrong, shows
+the participant's scene (drawn, not a blank canvas) with the trial's progress and, for answers
+said aloud, the word with Right / Wrong / Missed keys; its plan follows Start, Abort and Repeat;
+the colour word appears only once the trial has started."""
 
 from __future__ import annotations
 
@@ -63,12 +65,20 @@ def test_participant_and_operator_views(tmp_path):
             operator.get_by_role("textbox").last.fill(server.token)
             operator.get_by_text("Start next trial").wait_for()
             assert server.token not in operator.inner_text("body")  # the token left the page
+            time.sleep(3.0)
+            shot = operator.screenshot(path=str(tmp_path / "operator.png"))
+            assert shot
+            from PIL import Image
+
+            with Image.open(tmp_path / "operator.png") as image:  # the scene is drawn left of the panel
+                canvas = np.asarray(image.convert("L"))[100:700, 150:850]
+            assert np.mean(canvas < 200) > 0.01, "the operator's canvas is blank"
 
             # Start a divided-attention trial from the panel (skip the full-attention ones first).
             divided = next(t for t in server.plan if t.attention == "divided")
             server.start(divided)
             participant.get_by_text(f"Trial {divided.order} of 4.").wait_for()
-            participant.get_by_role("button", name="Red").wait_for()
+            assert participant.get_by_role("button", name="Red").count() == 0  # answers are said aloud
             time.sleep(3.0)  # no motion yet: the trial, and its colour task, has not started
             assert not WORD.search(participant.inner_text("body"))
             x, y = server.course.targets_m[0]
@@ -76,6 +86,14 @@ def test_participant_and_operator_views(tmp_path):
             text = wait_text(participant, WORD)
             assert f"Trial {divided.order} of 4." in text  # the trial number stays
             assert not CONDITION_WORDS.search(text)
+            word = WORD.search(text).group(0)
+            operator_text = wait_text(operator, re.compile(word))
+            assert "target 1 of 6" in operator_text or "target 2 of 6" in operator_text  # progress
+            operator.get_by_role("button", name="Right").click()  # the participant said the ink aloud
+            deadline = time.time() + 30
+            while time.time() < deadline and not any(s.judged_by == "operator" for s in server.current[1].colour.stimuli):
+                time.sleep(0.2)
+            assert any(s.judged_by == "operator" and s.answer == s.ink for s in server.current[1].colour.stimuli)
             server.loop.release_gizmo()
 
             wait_text(operator, re.compile(r"Running: P0\d"))

@@ -7,6 +7,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 
 import cobotsafety
 from cobotsafety.cli import main
@@ -21,21 +22,63 @@ from cobotsafety.planar.planar_teleop import PlanarTeleop
 
 def test_fig9_outcome(tmp_path, capsys):
     assert main(["experiment", "multi-limitation", "--json", "--out", str(tmp_path)]) == 0
-    results = {(r["scenario"], r["method"]): r for r in json.loads(capsys.readouterr().out)}
-    assert set(results) == {(s, m) for s in "ab" for m in ("anticipative", "reactive", "stop")}
-    assert all(set(r) == {"scenario", "method", "reached", "time_s", "min_clearance_m", "max_binding"}
-               for r in results.values())
+    rows = json.loads(capsys.readouterr().out)
+    results = {(r["scenario"], r["method"], r.get("reactive")): r for r in rows}
+    assert {(s, m) for s, m, _ in results} == {(s, m) for s in "ab" for m in ("anticipative", "reactive", "stop")}
+    keys = {"scenario", "method", "reached", "time_s", "min_clearance_m", "max_binding", "net_steps"}
+    assert all(set(r) - {"reactive"} == keys for r in rows)
+    one = {(r["scenario"], r["method"]): r for r in rows if r["method"] != "reactive"}
     # a: the zones are joined to circle B, no method gets through; sliding ends in the V with two binding.
-    for method in ("anticipative", "reactive", "stop"):
-        assert results["a", method]["reached"] is False and results["a", method]["time_s"] is None
-    assert results["a", "anticipative"]["max_binding"] == 2
+    for r in rows:
+        if r["scenario"] == "a":
+            assert r["reached"] is False and r["time_s"] is None
+    assert one["a", "anticipative"]["max_binding"] == 2
     # b: sliding passes the gap; stop stops at circle B.
-    assert results["b", "anticipative"]["reached"] is True
-    assert 0 < results["b", "anticipative"]["time_s"] < 10
-    assert results["b", "stop"]["reached"] is False
-    assert all(r["min_clearance_m"] >= -1e-9 for r in results.values())  # no method penetrates a zone
-    assert (tmp_path / "fig9_a.png").stat().st_size > 10_000
-    assert (tmp_path / "fig9_b.png").stat().st_size > 10_000
+    assert one["b", "anticipative"]["reached"] is True
+    assert 0 < one["b", "anticipative"]["time_s"] < 10
+    assert one["b", "stop"]["reached"] is False and one["b", "stop"]["max_binding"] == 1
+    # b: the figure shows a reactive setting that passes beside one that stalls.
+    reactive_b = [r for r in rows if r["scenario"] == "b" and r["method"] == "reactive"]
+    assert sorted(r["reached"] for r in reactive_b) == [False, True]
+    assert all(r["min_clearance_m"] >= -1e-9 for r in rows)  # no method penetrates a zone (the safety net)
+    for scenario in "ab":
+        assert (tmp_path / f"fig9_{scenario}.png").stat().st_size > 10_000
+        assert (tmp_path / f"fig9_{scenario}.svg").read_text().lstrip().startswith("<?xml")
+        assert (tmp_path / f"fig9_{scenario}.pdf").read_bytes()[:4] == b"%PDF"
+    from PIL import Image
+
+    with Image.open(tmp_path / "fig9_b.png") as image:
+        assert image.info["dpi"][0] == pytest.approx(300, abs=1)
+
+
+def test_binding_is_one_geometric_definition_for_every_method():
+    from cobotsafety.experiments.multi_limitation import BINDING_TOLERANCE_M, BINDING_TOLERANCE_RAD, binding_now
+
+    scene = fig9_scene("a")
+    result = run_scenario("a", "anticipative")
+    theta_1, theta_2 = scene.arm.inverse_kinematics(*result.path_m[-1])
+    kin = Kinematics(scene.arm, theta_1, theta_2)
+    expected = sorted({name for lim in scene.limitations for d, _x, _y, name, angular in lim.measures(kin)
+                       if d <= (BINDING_TOLERANCE_RAD if angular else BINDING_TOLERANCE_M)})
+    assert list(binding_now(scene.limitations, kin)) == expected == ["B joint 2 upper", "F triangle"]
+    # The reactive method keeps off every limitation: nothing binds by the same definition.
+    assert run_scenario("a", "reactive").max_binding == 0
+
+
+def test_the_sweep_varies_the_angular_zone_and_the_damping(capsys):
+    assert main(["experiment", "multi-limitation", "--sweep", "--grid", "quick", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    from cobotsafety.experiments.multi_limitation import QUICK_GRID
+
+    assert len(rows) == 2 * QUICK_GRID.size
+    assert {(r["zone_width_m"], r["zone_width_rad"]) for r in rows} == {(w, a) for w in QUICK_GRID.widths_m
+                                                                         for a in QUICK_GRID.widths_rad}
+    assert all("damping" in r and "stiffness_per_s" in r for r in rows)
+    b = {(r["zone_width_m"], r["zone_width_rad"]): r for r in rows if r["scenario"] == "b"}
+    # With 4 cm linear zones, the 0.15 rad angular zone at joint 2 (~4.3 cm on circle B) stalls
+    # the robot in the 6 cm gap; 0.05 rad lets it through.
+    assert not b[0.04, 0.15]["reached"] and b[0.04, 0.05]["reached"]
+    assert not any(r["reached"] for r in rows if r["scenario"] == "a")
 
 
 def test_scenario_a_ends_in_the_v_where_two_limitations_give_zero_output():
@@ -62,8 +105,10 @@ def test_scenario_a_ends_in_the_v_where_two_limitations_give_zero_output():
 
 
 def test_the_reactive_outcome_in_b_depends_on_its_tuning():
-    wide = run_scenario("b", "reactive", reactive=ReactiveParams(stiffness_per_s=60.0, zone_width_m=0.04))
-    assert not wide.reached  # two 4 cm repulsion zones do not fit the 6 cm gap (the paper's outcome)
+    from cobotsafety.experiments.multi_limitation import stalling_reactive
+
+    wide = run_scenario("b", "reactive", reactive=stalling_reactive())
+    assert not wide.reached  # 4 cm / 0.15 rad repulsion zones do not fit the 6 cm gap (the paper's outcome)
     tuned = run_scenario("b", "reactive", reactive=figure_reactive())
     assert tuned.reached and tuned.min_clearance_m > 0
 

@@ -28,6 +28,10 @@ def test_orders_are_counterbalanced_and_reproducible_from_the_seed():
     for p in ids:  # every participant does every condition in both attention modes
         assert sorted((t.attention, t.condition) for t in plan if t.participant == p) == [
             ("divided", "anticipative"), ("divided", "stop"), ("full", "anticipative"), ("full", "stop")]
+    attention_first = {p: next(t.attention for t in plan if t.participant == p and t.order == 1) for p in ids}
+    assert Counter(attention_first.values()) == {"full": 5, "divided": 5}  # attention order counterbalanced too
+    crossed = Counter((first[p], attention_first[p]) for p in ids)
+    assert max(crossed.values()) - min(crossed.values()) <= 1 and len(crossed) == 4
     assert session_plan(ids, seed=4) == plan
     assert any(session_plan(ids, seed=s) != plan for s in range(5, 10))
     three = session_plan([f"P{i}" for i in range(12)], ("anticipative", "stop", "reactive"), seed=1)
@@ -75,7 +79,8 @@ def test_a_session_killed_mid_way_loses_nothing_already_finished(tmp_path):
 def write_paper_like_logs(directory, seed=0, participants=10, learning=0.0):
     """Completion times drawn from the paper's own means and SDs, n = 10 per condition; error
     scores from Poisson(4.7) and Poisson(0.9) wrong answers in divided attention. Orders are
-    counterbalanced; ``learning`` makes each participant's second trial of a mode that much faster."""
+    counterbalanced (conditions and attention modes); ``learning`` makes each participant's second
+    trial of a mode that much faster."""
     rng = np.random.default_rng(seed)
     store = LogStore(directory)
     stats = {("full", "stop"): (40.0, 6.3), ("full", "anticipative"): (31.9, 3.8),
@@ -84,7 +89,8 @@ def write_paper_like_logs(directory, seed=0, participants=10, learning=0.0):
         first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
         for (attention, condition), (mean, sd) in stats.items():
             second = first.index(condition) == 1
-            order = (0 if attention == "full" else 2) + 1 + second
+            full_first = (i // 2) % 2 == 0  # attention order counterbalanced in pairs, as the plan does
+            order = (0 if (attention == "full") == full_first else 2) + 1 + second
             time_s = float(rng.normal(mean, sd)) * (1.0 - learning * second)
             wrong = int(rng.poisson(4.7 if condition == "stop" else 0.9)) if attention == "divided" else 0
             errors = [{"kind": "wrong", "t_s": 1.0 + 2.0 * k, "points": -1} for k in range(wrong)]
@@ -101,13 +107,25 @@ def analyze_json(directory, capsys):
 
 
 KEYS = {"comparison", "test", "n", "sliding_mean", "stop_mean", "p", "effect_size", "ci95"}
+NEW_KEYS = {"statistic", "p_method", "tail", "p_holm"}
 TESTS = ("mann-whitney one-tailed", "wilcoxon signed-rank one-tailed")
 
 
 def test_analysis_on_the_papers_numbers(tmp_path, capsys):
     write_paper_like_logs(tmp_path)
     results = analyze_json(tmp_path, capsys)
-    assert all(set(r) == KEYS for r in results.values())
+    assert all(KEYS | NEW_KEYS <= set(r) for r in results.values())
+    assert all(r["p_method"] in ("exact", "asymptotic") for r in results.values() if r["p"] is not None)
+    assert all(r["tail"] in ("less", "greater", "two-sided") for r in results.values())
+    interaction = [r for r in results.values() if r["comparison"].startswith("attention interaction")]
+    assert len(interaction) == 3 and all(r["tail"] == "less" for r in interaction)  # 2 rank tests + the mixed model
+    for r in results.values():
+        if r["role"] in ("primary", "secondary") and r["p"] is not None:
+            assert r["p_holm"] >= r["p"]
+        else:
+            assert r["p_holm"] is None
+    order = [r for r in results.values() if r["comparison"].startswith("order check")]
+    assert len(order) == 2 and all(r["sliding_mean"] is None and r["n_sliding_first"] == 5 for r in order)
     for attention in ("full", "divided"):
         for test in TESTS:  # sliding faster, with both tests, in the paper's direction
             r = results[f"{attention} attention: completion time [s]", test]
@@ -118,9 +136,17 @@ def test_analysis_on_the_papers_numbers(tmp_path, capsys):
         r = results["divided attention: error score [points]", test]
         assert r["p"] < 0.05 and r["sliding_mean"] > r["stop_mean"]
     report = (tmp_path / "report" / "report.md").read_text()
-    assert "| divided - full completion time [s] | wilcoxon signed-rank one-tailed | 10 |" in report
-    for name in ("times_full.png", "times_divided.png", "error_scores.png"):
-        assert (tmp_path / "report" / name).stat().st_size > 10_000
+    assert "| divided - full completion time [s] (paper 1's IV.B comparison) | wilcoxon signed-rank one-tailed | 10 |" \
+        in report
+    assert "No `plan.json`" in report  # these logs were written without one: the report says so
+    from PIL import Image
+
+    for name in ("times_full", "times_divided", "error_scores", "interaction"):
+        assert (tmp_path / "report" / f"{name}.png").stat().st_size > 10_000
+        assert (tmp_path / "report" / f"{name}.pdf").read_bytes()[:4] == b"%PDF"
+        assert "<svg" in (tmp_path / "report" / f"{name}.svg").read_text()
+        with Image.open(tmp_path / "report" / f"{name}.png") as image:
+            assert image.info["dpi"][0] == pytest.approx(300, abs=1)
 
 
 def test_effect_sizes_match_a_count_over_all_pairs():
@@ -140,7 +166,7 @@ def test_effect_sizes_match_a_count_over_all_pairs():
 def test_the_order_check_finds_a_learning_effect(tmp_path, capsys):
     write_paper_like_logs(tmp_path, seed=1, learning=0.35)
     strong = analyze_json(tmp_path, capsys)
-    key = next(k for k in strong if k[0].startswith("order effect, full"))
+    key = next(k for k in strong if k[0].startswith("order check, full"))
     assert strong[key]["p"] < 0.05
     write_paper_like_logs(tmp_path / "none", seed=1, learning=0.0)
     assert analyze_json(tmp_path / "none", capsys)[key]["p"] > strong[key]["p"]

@@ -1,14 +1,13 @@
-"""Scoring rule, course geometry and the simulated participant's divided-attention model."""
+"""Scoring rule and course geometry (the participant model: ``test_trial_simulation.py``)."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from cobotsafety.planar.planar_teleop import PlanarTeleop
 from cobotsafety.trial.course import arm_course, planar_course
 from cobotsafety.trial.scoring import ANSWER_WINDOW_S, error_score, stimulus_scored
-from cobotsafety.trial.session import TrialRun, simulate_trial
-from cobotsafety.trial.simulated_participant import SimulatedParticipant
+from cobotsafety.trial.session import TrialRun
 
 
 def test_stimuli_before_the_start_or_in_the_last_answer_window_are_not_scored():
@@ -52,63 +51,25 @@ def test_the_colour_task_runs_from_the_start_to_the_end_of_the_trial():
     assert record["error_score"] == -2 * len(scored)  # all missed, the last one not counted
 
 
-def _straight_bindings(method):
-    """Drive the course straight (no participant): how many times a limitation starts binding."""
-    course, robot = planar_course(), PlanarTeleop()
-    assert np.allclose(robot.p_base_ee_m[:2], course.start_m)
-    meetings, was, k, t = [], False, 0, 0.0
-    while k < len(course.targets_m) and t < 60.0:
-        offset = np.array(course.targets_m[k]) - robot.p_base_ee_m[:2]
-        if np.linalg.norm(offset) < course.target_radius_m:
-            k += 1
-            continue
-        v = 2.5 * offset * min(1.0, 0.25 / (2.5 * np.linalg.norm(offset)))
-        report = robot.step(v, 0.01, method)
-        t += 0.01
-        if report.binding and not was:
-            meetings.append(report.binding)
-        was = bool(report.binding)
-    return k, meetings
-
-
-def test_the_course_meets_the_workspace_limits_and_its_triangles_are_beside_the_routes():
+def test_the_triangles_stand_beside_the_straight_routes():
     for course in (planar_course(), arm_course()):
         assert course.route_clearance_m() > 0.03
-    reached, meetings = _straight_bindings("anticipative")
-    assert reached == len(planar_course().targets_m)
-    names = " ".join(n for m in meetings for n in m)
-    assert len(meetings) >= 3
-    assert "B joint 2" in names and "D joint 1" in names
 
 
-def _mean_times(condition, divided, seeds):
-    robot, course = PlanarTeleop(), planar_course()
-    times = []
-    for seed in seeds:
-        run, _ = simulate_trial(robot, course, SimulatedParticipant(seed=seed), condition, divided, seed)
-        assert run.finished
-        times.append(run.finished_s - run.started_s)
-    return float(np.mean(times))
+def test_point_triangle_distance_against_shapely_like_brute_force():
+    """The course's touch test: 0 inside, else the distance to the nearest edge (dense sampling)."""
+    from cobotsafety.trial.course import _point_triangle_distance
 
-
-def test_simulated_sliding_advantage_is_larger_in_divided_attention():
-    seeds = range(3)
-    full = _mean_times("stop", False, seeds) - _mean_times("anticipative", False, seeds)
-    divided = _mean_times("stop", True, seeds) - _mean_times("anticipative", True, seeds)
-    assert full > 0
-    assert divided > full + 1.0  # seconds
-
-
-def test_a_stop_seen_while_answering_is_noticed_only_after_looking_back():
-    agent = SimulatedParticipant(seed=0, colour_miss_rate=0.0, colour_error_rate=0.0)
-    agent.colour_shown(0.0, "red", ("red", "green", "blue", "yellow"))
-    back = agent._eyes_back_s
-    t = 0.0
-    while t < back + agent.look_back_s - 0.02:
-        t += 0.01
-        agent.observe(t, moving=False)
-        assert not agent.dealing_with_stop(t)
-    while not agent.dealing_with_stop(t):
-        t += 0.01
-        agent.observe(t, moving=False)
-    assert t >= back + agent.look_back_s + agent.notice_stop_s - 0.011
+    rng = np.random.default_rng(2)
+    tri = np.array([[0.0, 0.0], [0.1, 0.0], [0.03, 0.08]])
+    edges = np.concatenate([a + np.linspace(0, 1, 4001)[:, None] * (b - a)
+                            for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0]))])
+    for p in rng.uniform(-0.05, 0.15, (200, 2)):
+        d = _point_triangle_distance(p, tri)
+        # inside: barycentric coordinates all >= 0
+        m = np.array([tri[1] - tri[0], tri[2] - tri[0]]).T
+        u, v = np.linalg.solve(m, p - tri[0])
+        if u >= 0 and v >= 0 and u + v <= 1:
+            assert d == 0.0
+        else:
+            assert d == pytest.approx(np.min(np.linalg.norm(edges - p, axis=1)), abs=5e-5)

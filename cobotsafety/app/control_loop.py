@@ -210,6 +210,27 @@ class ControlLoop:
             self._gizmo_target_m = target
         return True
 
+    _device_v_m_s: np.ndarray | None = None
+    """The input device's last velocity (None: no device), set by ``set_device_velocity``."""
+
+    def set_device_velocity(self, v_m_s: np.ndarray | None) -> bool:
+        """The input device (joystick, 3D mouse; ``app.input_device``) asks for ``v_m_s`` [m/s]
+        (shape (dim,), or more: the first dim components are used); None = no device. Used when
+        no gizmo drag is in progress. Returns False (and drops the device's command) for a
+        malformed or non-finite velocity."""
+        if v_m_s is None:
+            with self.lock:
+                self._device_v_m_s = None
+            return True
+        try:
+            v = np.asarray(v_m_s, dtype=float).reshape(-1)[:self._robot.dim]
+        except (TypeError, ValueError):
+            v = None
+        ok = v is not None and v.shape == (self._robot.dim,) and bool(np.all(np.isfinite(v)))
+        with self.lock:
+            self._device_v_m_s = v.copy() if ok else None
+        return ok
+
     def release_gizmo(self) -> None:
         """Drag ended (or its client left): the gizmo commands zero from now on."""
         with self.lock:
@@ -243,13 +264,16 @@ class ControlLoop:
 
     # ---- one step ----------------------------------------------------------------------
     def desired_velocity(self) -> np.ndarray:
-        """The raw user command now (gizmo while dragged, else jog, else zero), shape (dim,)."""
+        """The raw user command now (gizmo while dragged, else jog, else the input device, else
+        zero), shape (dim,)."""
         dim = self._robot.dim
         if self._gizmo_target_m is not None:
             offset = self._gizmo_target_m - np.asarray(self._robot.p_base_ee_m, dtype=float)
             return offset_to_velocity(offset[:dim], self.gizmo)
         if self._t_s < self._jog_until_s:
             return self._jog_m_s
+        if self._device_v_m_s is not None and self._device_v_m_s.shape == (dim,):
+            return self._device_v_m_s
         return np.zeros(dim)
 
     def _feed_human(self, dt_s: float) -> None:

@@ -1,8 +1,17 @@
-"""``cobotsafety analyze DIR [--out DIR] [--json]``: the trial report (Markdown + PNGs).
+"""``cobotsafety analyze DIR [--out DIR] [--json]``: the trial report (Markdown + figures).
 
 ``--json`` prints a JSON list, one object per comparison and test:
-``{"comparison", "test", "n", "sliding_mean", "stop_mean", "p", "effect_size", "ci95"}``
-(``p`` null when the data are too few for the test; the Markdown report says why).
+``{"comparison", "test", "n", "sliding_mean", "stop_mean", "p", "effect_size", "ci95",
+"statistic", "p_method", "tail", "p_holm", "role"}``: ``statistic`` is U (Mann-Whitney, of the
+sliding sample), W (signed-rank, scipy's) or z (mixed model); ``p_method`` ``"exact"`` or
+``"asymptotic"``; ``tail`` ``"less"``, ``"greater"`` or ``"two-sided"`` in the direction
+sliding - stop; ``p_holm`` the Holm-adjusted p within the primary or secondary family (null
+elsewhere); ``role`` primary, secondary, supporting or check. The attention interaction on log
+time is the objects whose ``comparison`` starts with ``"attention interaction"``. Order-check
+objects carry ``n_sliding_first``, ``n_stop_first``, ``sliding_first_mean``,
+``stop_first_mean`` (the mean advantages their p is about), ``power`` and ``verdict``
+(``sliding_mean``/``stop_mean`` null). ``p`` is null when the data are too few for the test
+(the Markdown report says why).
 """
 
 from __future__ import annotations

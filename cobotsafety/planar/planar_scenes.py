@@ -1,5 +1,5 @@
-"""Planar scenes: the demo scene with every limitation A-G, Fig. 9's scenarios a and b, and a
-scene in which the Jacobian-conditioning safeguard of III.C.2 acts.
+"""Planar scenes: the demo scene with every limitation A-G, the user trial's scene, Fig. 9's
+scenarios a and b, and a scene in which the Jacobian-conditioning safeguard of III.C.2 acts.
 
 Positions in metres in the base frame; the base is at the origin.
 """
@@ -35,6 +35,10 @@ INNER_REACH_RADIUS_M = 0.05
 EXTENDED_REACH_RADIUS_M = 0.57
 
 
+#: The demo's and the trial's damped zone (III.C.1): 1 cm before metric limits, 0.05 rad before joint limits.
+DEMO_DAMPING = Damping(width_m=0.01, width_rad=0.05)
+
+
 def arm_limitations(arm: PlanarArm) -> list[PlanarLimitation]:
     """A, B, C, D, E and the conditioning safeguard (the arm's own limitations)."""
     return [
@@ -56,7 +60,16 @@ def demo_scene(arm: PlanarArm | None = None) -> PlanarScene:
         RectangleZone("F rectangle zone", (-0.38, 0.25), (0.05, 0.04)),
         LinkCircleZone("G link zone", (0.16, -0.16), 0.04),
     ]
-    return PlanarScene(arm, arm_limitations(arm) + zones, Damping(width_m=0.01, width_rad=0.05))
+    return PlanarScene(arm, arm_limitations(arm) + zones, DEMO_DAMPING)
+
+
+def trial_scene(arm: PlanarArm | None = None) -> PlanarScene:
+    """The scene of the user trials (paper 1, IV.A-B), the one people drive in the browser and
+    the simulated participant drives headless: the arm's own limitations A-E and the
+    conditioning safeguard, with the demo's damped zone. No protection zones (F, G): the
+    course's triangles are the only obstacles, and they are scored, not enforced."""
+    arm = arm or PlanarArm()
+    return PlanarScene(arm, arm_limitations(arm), DEMO_DAMPING)
 
 
 def joint_2_circle_radius_m(arm: PlanarArm) -> float:

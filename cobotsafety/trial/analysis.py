@@ -1,16 +1,14 @@
-"""The trial report (paper 1, IV.A-B): Markdown tables and the figures a paper would print.
+"""The trial report (paper 1, IV.A-B): Markdown tables and the figures a journal prints.
 
 ``analyze(directory, out)`` loads the log (problems reported with file and line), scores every
 record with ``cobotsafety.trial.scoring`` (so browser logs are scored by the same rule), runs
-``cobotsafety.trial.statistics.compare_all`` and writes ``report.md`` with:
-
-* ``times_full.png``, ``times_divided.png`` (like Figs. 7 and 8): completion time per
-  participant, one line per participant joining stop and sliding, group means with bootstrap
-  95 % intervals; the y-axis starts at 0 s;
-* ``error_scores.png``: the error score per participant in both attention modes, drawn the
-  same way; the axis runs from the lowest score to 0 points.
-
-A comparison whose test cannot run is listed with the reason instead of a number.
+``cobotsafety.trial.statistics.compare_all`` (the analysis ``plan.json`` declared) and writes
+``report.md`` with: the declaration, a descriptive table (mean ± SD, median, % change), the
+primary and secondary tests (statistic, p with its method and tail, Holm-adjusted p, effect
+size, bootstrap CI), the mixed model, the order checks ("not detected" with their power), the
+skipped trials with their reasons, and for simulated logs what the model did. Figures, each as
+300-dpi PNG, SVG and PDF (``figures.py``): completion time per participant in each mode,
+error scores, and the attention interaction on a log axis.
 """
 
 from __future__ import annotations
@@ -20,7 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from cobotsafety.trial.log_store import load
-from cobotsafety.trial.statistics import SLIDING, STOP, Result, by_participant, compare_all, completion, score
+from cobotsafety.trial.plan import ANALYSIS, read_plan
+from cobotsafety.trial.statistics import SLIDING, STOP, Result, compare_all, describe
+
+PAPER_SAVING = {"full": 0.20, "divided": 0.32}
 
 
 def results_for(directory: Path) -> tuple[list[Result], list[dict], list[str]]:
@@ -34,94 +35,140 @@ def _fmt(x, digits: int = 2) -> str:
 
 
 def _p(p) -> str:
-    return "-" if p is None else f"{p:.2g}"
+    if p is None:
+        return "-"
+    return f"{p:.2g}" if p >= 1e-4 else f"{p:.1e}"
+
+
+def _statistic(r: Result) -> str:
+    if r.statistic is None:
+        return "-"
+    name = {"mann-whitney": "U", "wilcoxon": "W", "linear mixed": "z"}
+    label = next((v for k, v in name.items() if r.test.startswith(k)), "")
+    return f"{label} = {r.statistic:.4g}"
+
+
+def _rows(results: list[Result]) -> list[str]:
+    lines = ["| comparison | test | n | sliding mean | stop mean | statistic | p (method, tail) | p Holm | effect size "
+             "| 95 % CI |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        ci = "-" if r.ci95 is None else f"[{r.ci95[0]:.3g}, {r.ci95[1]:.3g}]"
+        p = "not tested*" if r.p is None else f"{_p(r.p)} ({r.p_method}, {r.tail})"
+        lines.append(f"| {r.comparison} | {r.test} | {r.n} | {_fmt(r.sliding_mean)} | {_fmt(r.stop_mean)} | "
+                     f"{_statistic(r)} | {p} | {_p(r.p_holm)} | {_fmt(r.effect_size)} | {ci} |")
+    return lines
+
+
+def _declaration(directory: Path) -> list[str]:
+    plan = read_plan(directory)
+    if plan is None:
+        lines = ["No `plan.json` in the log folder: the analysis below is the package's default declaration "
+                 "(`cobotsafety.trial.plan.ANALYSIS`), not one written before the data."]
+        analysis = ANALYSIS
+    else:
+        lines = [f"Declared in `plan.json`, written {plan.get('written_utc', '?')} before the first trial "
+                 f"(seed {plan.get('seed')})."]
+        analysis = plan.get("analysis", ANALYSIS)
+    primary, secondary = analysis["primary"], analysis["secondary"]
+    lines += ["", f"- **Primary outcome**: {primary['outcome']}; tests: {'; '.join(primary['tests'])}; "
+                  f"tail: {primary['tail']}; alpha {primary['alpha']}; {primary['correction']}.",
+              f"- **Secondary**: {'; '.join(secondary['outcomes'])}. {secondary['correction']}. Supporting: "
+              f"{secondary['supporting']}.",
+              f"- **Checks**: {analysis['checks']['order']}.",
+              f"- **p-values**: {analysis['p_values']}."]
+    return lines
+
+
+def _order_lines(results: list[Result]) -> list[str]:
+    lines = []
+    for r in results:
+        if r.role != "check":
+            continue
+        x = r.extra
+        if r.p is None:
+            lines.append(f"- {r.comparison}: not tested ({r.reason}).")
+            continue
+        power = f", power {100 * x['power']:.0f} % for a {x['power_for']}" if "power" in x else ""
+        lines.append(f"- {r.comparison}: **{x['verdict']}** (U = {r.statistic:g}, p = {_p(r.p)} {r.p_method}, "
+                     f"two-sided{power}); mean advantage {_fmt(x['sliding_first_mean'])} s with sliding first "
+                     f"(n = {x['n_sliding_first']}) vs {_fmt(x['stop_first_mean'])} s with stop first "
+                     f"(n = {x['n_stop_first']}).")
+    return lines
+
+
+def _model_lines(records: list[dict]) -> list[str]:
+    """For simulated logs: what the participant model did (stops by trial position, savings)."""
+    sim = [r for r in records if "model" in r and not r.get("skipped")]
+    if not sim:
+        return []
+    lines = ["", "## What the simulated participants did", "",
+             "Time the robot did not follow the drag (share of the trial) and stops noticed, stop condition, by "
+             "the trial's position in the participant's session (the model learns the limits: detours shrink "
+             "with practice):", "", "| position | stop trials | still share | stops noticed | known stops |",
+             "|---|---|---|---|---|"]
+    for order in (1, 2, 3, 4):
+        cell = [r for r in sim if r["condition"] == STOP and r["order"] == order and r.get("completion_time_s")]
+        if cell:
+            share = np.mean([r["model"]["still_s"] / r["completion_time_s"] for r in cell])
+            lines.append(f"| {order} | {len(cell)} | {100 * share:.0f} % | "
+                         f"{np.mean([r['model']['stops_noticed'] for r in cell]):.1f} | "
+                         f"{np.mean([r['model']['known_stops'] for r in cell]):.1f} |")
+    lines += ["", "Time saving of sliding (1 - mean sliding time / mean stop time) against paper 1's:", ""]
+    for attention in ("full", "divided"):
+        sl = [r["completion_time_s"] for r in sim if r["attention"] == attention and r["condition"] == SLIDING
+              and r.get("completion_time_s")]
+        st = [r["completion_time_s"] for r in sim if r["attention"] == attention and r["condition"] == STOP
+              and r.get("completion_time_s")]
+        if sl and st:
+            lines.append(f"- {attention} attention: {100 * (1 - np.mean(sl) / np.mean(st)):.0f} % "
+                         f"(paper 1: {100 * PAPER_SAVING[attention]:.0f} %)")
+    return lines
 
 
 def report_text(directory: Path, results: list[Result], records: list[dict], problems: list[str]) -> str:
     participants = sorted({r["participant"] for r in records})
+    skipped = [r for r in records if r.get("skipped")]
     lines = ["# Trial report", "",
-             f"Log: `{directory}`: {len(records)} trials, {len(participants)} participants.",
+             f"Log: `{directory}`: {len(records)} trials ({len(skipped)} skipped), {len(participants)} participants.",
              "Scoring: missed colour -2, wrong colour -1, touched triangle -3; colour words shown before the start "
-             "or within the 2 s answer window before the end are not scored (`cobotsafety.trial.scoring`)."]
+             "or within the 2 s answer window before the end are not scored (`cobotsafety.trial.scoring`).",
+             "", "## Analysis plan", ""] + _declaration(directory)
     if problems:
         lines += ["", "## Problems in the logs (the rest was analysed)", ""] + [f"- {p}" for p in problems]
+    if skipped:
+        lines += ["", "## Skipped trials (left out of every test)", ""] + [
+            f"- {r['participant']} #{r['order']} {r['attention']} / {r['condition']}: {r.get('skip_reason', '?')} "
+            f"(reached {r.get('targets_reached', '?')} targets)" for r in skipped]
+    lines += ["", "## Descriptive statistics", "",
+              "| attention | outcome | sliding: mean ± SD (median, n) | stop: mean ± SD (median, n) | % change |",
+              "|---|---|---|---|---|"]
+    for d in describe(records):
+        sl, st, change = d.cells()
+        lines.append(f"| {d.attention} | {d.label} | {sl} | {st} | {change} |")
     lines += ["", "## Tests", "",
-              "One-tailed tests that sliding (`anticipative`) beats `stop`: the paper's Mann-Whitney-Wilcoxon "
-              "(independent groups) and the paired Wilcoxon signed-rank test (every participant did both). "
-              "Effect size: rank-biserial correlation, positive = favours sliding. 95 % CI: bootstrap (BCa) of the "
-              "mean difference sliding - stop (paired differences for Wilcoxon, group means for MWW). The order rows "
-              "compare the advantage (stop - sliding time) of participants who did sliding first with those who "
-              "did stop first (two-sided; a difference means learning or carry-over).", "",
-              "| comparison | test | n | sliding mean | stop mean | p | effect size | 95 % CI |",
-              "|---|---|---|---|---|---|---|---|"]
-    notes = []
-    for r in results:
-        ci = "-" if r.ci95 is None else f"[{r.ci95[0]:.2f}, {r.ci95[1]:.2f}]"
-        p = _p(r.p) if r.p is not None else "not tested*"
-        lines.append(f"| {r.comparison} | {r.test} | {r.n} | {_fmt(r.sliding_mean)} | {_fmt(r.stop_mean)} | {p} | "
-                     f"{_fmt(r.effect_size)} | {ci} |")
-        if r.reason:
-            notes.append(f"- {r.comparison}, {r.test}: {r.reason}.")
+              "Tails are in the direction sliding - stop (`less`: sliding lower). U is scipy's Mann-Whitney "
+              "statistic of the sliding sample, W scipy's signed-rank statistic of sliding - stop (the rank sum "
+              "of the positive differences), z the mixed model's Wald statistic. Effect size: rank-biserial "
+              "correlation, positive = favours sliding (mixed model: the coefficient, negative = favours "
+              "sliding). 95 % CI: bootstrap (BCa) of the mean difference sliding - stop (paired differences for "
+              "Wilcoxon, group means for Mann-Whitney); mixed model: Wald interval of the coefficient. "
+              "p Holm: Holm-adjusted within the family (primary or secondary) and test.", "",
+              "### Primary", ""] + _rows([r for r in results if r.role == "primary"])
+    lines += ["", "### Secondary", ""] + _rows([r for r in results if r.role == "secondary"])
+    lines += ["", "### Supporting: mixed model", ""] + _rows([r for r in results if r.role == "supporting"])
+    mixed = next((r for r in results if r.role == "supporting" and r.p is not None), None)
+    if mixed is not None:
+        lines += ["", f"The interaction coefficient {mixed.effect_size:+.3f} means sliding's saving is "
+                      f"{abs(mixed.extra['percent']):.0f} % {'larger' if mixed.effect_size < 0 else 'smaller'} "
+                      f"in divided than in full attention (log scale)."]
+    lines += ["", "### Order checks", ""] + _order_lines(results)
+    notes = [f"- {r.comparison}, {r.test}: {r.reason}." for r in results if r.reason]
     if notes:
-        lines += ["", "Tests with too few data (*: not run, no p-value):", ""] + notes
+        lines += ["", "Tests with too few data or a caveat (*: not run, no p-value):", ""] + notes
+    lines += _model_lines(records)
+    lines += ["", "Figures: `times_full`, `times_divided`, `error_scores`, `interaction` (each .png at 300 dpi, "
+                  ".svg, .pdf)."]
     return "\n".join(lines) + "\n"
-
-
-def _paired_panel(ax, t: dict, attention: str, value, unit_label: str, title: str,
-                  ylim: tuple[float, float] | None = None) -> None:
-    from scipy.stats import bootstrap
-
-    sl, st = t.get((attention, SLIDING), {}), t.get((attention, STOP), {})
-    ids = sorted(p for p in set(sl) & set(st) if value(sl[p]) is not None and value(st[p]) is not None)
-    xs = (0.0, 1.0)
-    for p in ids:
-        ax.plot(xs, (value(st[p]), value(sl[p])), color="0.6", lw=0.8, marker=".", zorder=1)
-    for x, group, marker, name in ((0.0, st, "o", "stop"), (1.0, sl, "x", "sliding")):
-        vals = np.array([v for r in group.values() if (v := value(r)) is not None], float)
-        if len(vals) == 0:
-            continue
-        mean = float(vals.mean())
-        if len(vals) >= 2 and np.ptp(vals) > 0:
-            ci = bootstrap((vals,), np.mean, n_resamples=9999, random_state=np.random.default_rng(0)).confidence_interval
-            err = [[mean - ci.low], [ci.high - mean]]
-        else:
-            err = None
-        ax.errorbar([x], [mean], yerr=err, fmt=marker, ms=11, mew=2.5, capsize=6, color="C0" if x else "C1",
-                    zorder=3, label=f"{name} mean (95 % CI), n = {len(vals)}")
-    ax.set_xticks(xs, ["stop", "sliding"])
-    ax.set_xlim(-0.4, 1.4)
-    ax.set_xlabel("condition (lines join one participant's two trials)")
-    ax.set_ylabel(unit_label)
-    ax.set_title(title, fontsize=10)
-    ax.set_ylim(ylim if ylim is not None else (0.0, ax.get_ylim()[1]))
-    ax.legend(fontsize=8, loc="best")
-
-
-def write_figures(out: Path, records: list[dict]) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    t = by_participant(records)
-    written = []
-    for attention, fig_no in (("full", 7), ("divided", 8)):
-        fig, ax = plt.subplots(figsize=(5.5, 4.2))
-        _paired_panel(ax, t, attention, completion, "completion time [s] (axis from 0)",
-                      f"Completion time per participant, {attention} attention (like Fig. {fig_no})")
-        path = out / f"times_{attention}.png"
-        fig.savefig(path, dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        written.append(path)
-    lowest = min(score(r) for r in records)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
-    for ax, attention in zip(axes, ("full", "divided")):
-        _paired_panel(ax, t, attention, score, "error score [points] (0 = no error)",
-                      f"Error score per participant, {attention} attention", ylim=(min(lowest, 0.0) - 1.0, 0.5))
-    fig.savefig(out / "error_scores.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    written.append(out / "error_scores.png")
-    return written
 
 
 def analyze(directory: Path, out: Path | None = None) -> str:
@@ -131,12 +178,14 @@ def analyze(directory: Path, out: Path | None = None) -> str:
 
 def write_report(directory: Path, out: Path | None = None) -> tuple[str, list[Result]]:
     """``analyze``, also returning the results (for ``cobotsafety analyze --json``)."""
+    from cobotsafety.trial.figures import write_figures  # noqa: PLC0415
+
     directory = Path(directory)
     out = Path(out) if out is not None else directory / "report"
     out.mkdir(parents=True, exist_ok=True)
     results, records, problems = results_for(directory)
     text = report_text(directory, results, records, problems)
-    if records:
+    if any(not r.get("skipped") for r in records):
         write_figures(out, records)
     (out / "report.md").write_text(text)
     return text, results

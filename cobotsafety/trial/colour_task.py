@@ -2,6 +2,10 @@
 
 The participant answers the *ink* colour. Scores: missed -2, wrong -1 (a touched obstacle, -3,
 is scored by the course). Response times are logged. Clock-driven and deterministic per seed.
+
+Two ways to answer: on-screen buttons (``answer``: the colour clicked), or aloud as in paper 1,
+judged by the operator with Right / Wrong / Missed keys (``judge``: the time of the key press is
+logged as the answer time, so response times then include the operator's own reaction).
 """
 
 from __future__ import annotations
@@ -11,6 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 COLOURS = ("red", "green", "blue", "yellow")
+#: The answer logged for a word judged wrong by the operator (the colour said is not recorded).
+OTHER = "other"
+VERDICTS = ("right", "wrong", "missed")
 MISSED_POINTS = -2
 WRONG_POINTS = -1
 
@@ -22,6 +29,10 @@ class Stimulus:
     ink: str
     answer: str | None = None
     answered_s: float | None = None
+    judged_by: str | None = None
+    """``"participant"`` (buttons), ``"operator"`` (aloud, judged), or None (no answer yet)."""
+    judged_s: float | None = None
+    """When the operator marked the word (Missed included) [s]."""
 
     @property
     def correct(self) -> bool | None:
@@ -58,7 +69,20 @@ class ColourTask:
         s = self.current
         if s is None or s.answer is not None:
             return False
-        s.answer, s.answered_s = colour, t_s
+        s.answer, s.answered_s, s.judged_by = colour, t_s, "participant"
+        return True
+
+    def judge(self, t_s: float, verdict: str) -> bool:
+        """The operator's judgement of the answer said aloud to the current word: ``right``
+        (answer = the ink), ``wrong`` (answer = ``OTHER``) or ``missed``; the first one counts."""
+        if verdict not in VERDICTS:
+            raise ValueError(f"verdict must be one of {VERDICTS}, got {verdict!r}")
+        s = self.current
+        if s is None or s.judged_by is not None:
+            return False
+        s.judged_by, s.judged_s = "operator", t_s
+        if verdict != "missed":
+            s.answer, s.answered_s = (s.ink if verdict == "right" else OTHER), t_s
         return True
 
     def score(self) -> int:

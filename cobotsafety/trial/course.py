@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,28 +51,33 @@ class Course:
 
 
 def _point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> float:
-    """0 inside the triangle, else the distance to its boundary [m]."""
-    signs = []
-    best = np.inf
-    for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
-        e = b - a
-        signs.append(e[0] * (p[1] - a[1]) - e[1] * (p[0] - a[0]))
-        t = np.clip((p - a) @ e / (e @ e), 0.0, 1.0)
-        best = min(best, float(np.linalg.norm(p - (a + t * e))))
-    if all(s >= 0 for s in signs) or all(s <= 0 for s in signs):
-        return 0.0
-    return best
+    """0 inside the triangle, else the distance to its boundary [m] (plain floats: this runs
+    every simulated step)."""
+    px, py = float(p[0]), float(p[1])
+    corners = [(float(tri[k][0]), float(tri[k][1])) for k in range(3)]
+    best = math.inf
+    positive = negative = False
+    for (ax, ay), (bx, by) in zip(corners, corners[1:] + corners[:1]):
+        ex, ey = bx - ax, by - ay
+        cross = ex * (py - ay) - ey * (px - ax)
+        positive |= cross > 0.0
+        negative |= cross < 0.0
+        t = min(max(((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        best = min(best, math.hypot(px - ax - t * ex, py - ay - t * ey))
+    return 0.0 if not (positive and negative) else best
 
 
 def planar_course() -> Course:
-    """A Fig. 6-like course in the planar arm's workspace (the demo scene, start (-0.2, 0.03) m).
+    """A Fig. 6-like course in the planar arm's workspace (start (-0.2, 0.03) m), driven in the
+    trial scene (``planar_scenes.trial_scene``: limitations A-E, no protection zones).
 
-    Like paper 1's course, it makes the participant meet the workspace limits: driven straight,
-    the route start -> 1 cuts the joint-2 circle B around the base, 2 -> 3 cuts joint 1's lower
-    limit D (the end-effector cannot reach low angles close to the base), 3 -> 4 cuts circle B
-    again and 4 -> 5 the rectangular protection zone; targets 2, 5 and 6 lie within 2-6 cm of
-    the extended reach E. The two triangles sit 4-5 cm beside the straight routes 1 -> 2 and
-    5 -> 6: obstacles to steer around, never on the straight path (a test checks both).
+    Like paper 1's course, it makes the participant meet the workspace limits. Driven straight
+    under sliding (``trial_scene.straight_drive``, tested): the route start -> 1 slides on
+    joint 2's circle B, 2 -> 3 on joint 1's lower limit D, 3 -> 4 on circle B again: three
+    binding episodes, the other three routes are free. Targets 2, 5 and 6 lie 2-6 cm inside
+    the extended reach E (a straight route between two points inside a circle never meets it,
+    an overshoot does). The two triangles sit 4-5 cm beside the straight routes 1 -> 2 and
+    5 -> 6: obstacles to steer around, never on the straight path (tested).
     """
     return Course(
         "planar",

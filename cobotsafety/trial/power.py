@@ -1,14 +1,18 @@
 """Power: how often each comparison comes out significant with N participants.
 
 ``power(studies)`` runs ``statistics.compare_all`` (without bootstrap intervals) on each study's
-records and counts, per comparison and test, the studies with ``p < alpha``; a test that cannot
-run counts as not significant. ``simulated_power(N, K)`` feeds it K studies of N simulated
-participants (``cobotsafety trial --simulate N --repeat K``). The simulated participant is an
-assumption (see ``simulated_participant``): the numbers plan a study, they are not evidence.
+records and counts, per comparison and test, the studies whose decision p (Holm-adjusted where
+the comparison is in a family, else the raw p) is below alpha; a test that cannot run counts as
+not significant. ``simulated_power(N, K)`` feeds it K studies of N simulated participants
+(``cobotsafety trial --simulate N --repeat K``; ``overrides`` sets parameter ranges, ``--vary``).
+The simulated participant is a model (see ``simulated_participant``): the numbers plan a study
+and show what the model's assumptions imply, they are not evidence.
 ``paper_power(N, K)`` (``--paper-effect``) draws the studies from paper 1's own means and SDs
 instead (IV.A-B: times normal, colour errors Poisson with the reported mean scores), each value
 independent (the paper gives no within-person correlation, so pairing gains nothing here: a
 conservative estimate for the paired test).
+``sensitivity(N, K, vary)`` repeats ``simulated_power`` with one parameter set to each of a few
+values at a time (``--vary NAME=LO:HI``).
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ class PowerRow:
     median_p: float | None
     mean_sliding: float | None
     mean_stop: float | None
+    role: str = ""
 
     def as_json(self) -> dict:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
@@ -45,27 +50,34 @@ def power(studies: Iterable[list[dict]], alpha: float = 0.05) -> list[PowerRow]:
     for records in studies:
         n_studies += 1
         participants = max(participants, len({r["participant"] for r in records}))
-        for r in compare_all(records, with_ci=False):
+        for r in compare_all(records, with_ci=False, order_power=False):
             per_key.setdefault((r.comparison, r.test), []).append(r)
     rows = []
     for (comparison, test), results in per_key.items():
         ps = [r.p for r in results if r.p is not None]
-        significant = sum(1 for p in ps if p < alpha)
+        significant = sum(1 for r in results if r.p is not None
+                          and (r.p_holm if r.p_holm is not None else r.p) < alpha)
         means = [(r.sliding_mean, r.stop_mean) for r in results if r.sliding_mean is not None and r.stop_mean is not None]
         rows.append(PowerRow(comparison, test, participants, n_studies, significant / n_studies,
                              float(np.median(ps)) if ps else None,
                              float(np.mean([m[0] for m in means])) if means else None,
-                             float(np.mean([m[1] for m in means])) if means else None))
+                             float(np.mean([m[1] for m in means])) if means else None, results[0].role))
     return rows
 
 
 def simulated_power(participants: int, repeat: int, seed: int = 0, scene: str = "planar",
-                    alpha: float = 0.05) -> list[PowerRow]:
+                    alpha: float = 0.05, overrides: dict[str, tuple[float, float]] | None = None) -> list[PowerRow]:
     """``repeat`` simulated studies of ``participants`` each (study k uses seed ``seed + k``)."""
-    from cobotsafety.trial.simulate import simulated_study
+    return power(simulated_studies(participants, repeat, seed, scene, overrides), alpha)
 
-    studies = ([record for record, _ in simulated_study(participants, seed + k, scene)] for k in range(repeat))
-    return power(studies, alpha)
+
+def simulated_studies(participants: int, repeat: int, seed: int = 0, scene: str = "planar",
+                      overrides: dict[str, tuple[float, float]] | None = None):
+    """The records of ``repeat`` simulated studies (a generator of lists)."""
+    from cobotsafety.trial.simulate import simulated_study  # noqa: PLC0415
+
+    for k in range(repeat):
+        yield [record for record, _ in simulated_study(participants, seed + k, scene, overrides=overrides)]
 
 
 #: Paper 1's completion times (mean, SD) [s] and mean error scores [points], IV.A-B.
@@ -75,15 +87,19 @@ PAPER_DIVIDED_SCORES = {"stop": -4.7, "anticipative": -0.9}
 
 
 def paper_study(participants: int, seed: int) -> list[dict]:
-    """Records of one study drawn from the paper's numbers (orders alternate AB / BA)."""
+    """Records of one study drawn from the paper's numbers, in ``plan.session_plan``'s
+    counterbalanced orders (conditions and attention modes)."""
+    from cobotsafety.trial.plan import session_plan  # noqa: PLC0415
+
     rng = np.random.default_rng(seed)
+    ids = [f"P{i + 1:02d}" for i in range(participants)]
+    order = {(t.participant, t.attention, t.condition): t.order for t in session_plan(ids, seed=seed)}
     records = []
-    for i in range(participants):
-        first = ("anticipative", "stop") if i % 2 == 0 else ("stop", "anticipative")
+    for participant in ids:
         for (attention, condition), (mean, sd) in PAPER_TIMES_S.items():
             lost = int(rng.poisson(-PAPER_DIVIDED_SCORES[condition])) if attention == "divided" else 0
-            records.append({"participant": f"P{i + 1:02d}", "condition": condition, "attention": attention,
-                            "order": (1 if attention == "full" else 3) + first.index(condition),
+            records.append({"participant": participant, "condition": condition, "attention": attention,
+                            "order": order[participant, attention, condition],
                             "completion_time_s": float(rng.normal(mean, sd)),
                             "errors": [{"kind": "wrong", "t_s": 0.0, "points": -1}] * lost})
     return records

@@ -68,8 +68,10 @@ class TrialRun:
             return None
         return self.colour.tick(t_s)
 
-    def record(self, participant: str, condition: str, order: int, seed: int) -> dict:
-        """The log record; colour errors only for stimuli that count (``scoring``)."""
+    def record(self, participant: str, condition: str, order: int, seed: int, skip_reason: str | None = None) -> dict:
+        """The log record; colour errors only for stimuli that count (``scoring``). With
+        ``skip_reason`` the trial is logged as skipped (not finished: no completion time, the
+        targets reached so far, the reason), and the analysis leaves it out of every test."""
         completion = None if self.finished_s is None else round(self.finished_s - self.started_s, 3)
         colour_errors, response_times, stimuli = [], [], []
         start = self.started_s if self.started_s is not None else 0.0
@@ -78,7 +80,7 @@ class TrialRun:
             scored = stimulus_scored(shown, completion)
             stimuli.append({"shown_s": shown, "word": s.word, "ink": s.ink, "answer": s.answer,
                             "answered_s": None if s.answered_s is None else round(s.answered_s - start, 3),
-                            "scored": scored})
+                            "judged_by": s.judged_by, "scored": scored})
             if not scored:
                 continue
             if s.answer is None:
@@ -95,6 +97,9 @@ class TrialRun:
             "answer_window_s": ANSWER_WINDOW_S, "stimuli": stimuli,
         }
         record["error_score"] = error_score(record)
+        if skip_reason is not None:
+            record.update({"skipped": True, "skip_reason": skip_reason, "targets_reached": self.next_target,
+                           "completion_time_s": None})
         return record
 
 
@@ -111,11 +116,11 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
             goal = np.array([target[0], target[1], course.height_m])
         else:
             goal = target
-        v = participant.command(t, p[:robot.dim], goal[:robot.dim], divided)
+        v = participant.command(t, p[:robot.dim], goal[:robot.dim], divided, route=run.next_target)
         report = robot.step(v, dt_s, condition)
         t += dt_s
         moving = bool(np.linalg.norm(report.v_executed_m_s) > 1e-3)
-        participant.observe(t, moving)
+        participant.observe(t, moving, slid=moving and bool(report.binding))
         run.update(t, report.p_base_ee_m, moving=moving)
         shown = run.tick_colour(t)
         if shown is not None:
@@ -124,4 +129,5 @@ def simulate_trial(robot, course: Course, participant, condition: str, divided: 
             answer = participant.colour_response(t)
             if answer is not None:
                 run.colour.answer(t, answer)
+    participant.finish_trial()
     return run, np.array(run.trajectory).reshape(-1, 4)
