@@ -1,4 +1,4 @@
-"""Planar arm kinematics against finite differences, and the 2D projection against slide."""
+"""Planar arm kinematics against finite differences."""
 
 from __future__ import annotations
 
@@ -6,9 +6,7 @@ import math
 
 import numpy as np
 
-from cobotsafety import slide
 from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
-from cobotsafety.planar.project2d import project_2d
 
 ARM = PlanarArm()
 
@@ -69,16 +67,3 @@ def test_damped_inverse_is_finite_at_the_singularity():
     assert max(abs(v) for v in values) < 1e4
 
 
-def test_exact_2d_projection_agrees_with_slide():
-    rng = np.random.default_rng(2)
-    for _ in range(10_000):
-        m = int(rng.integers(1, 7))
-        angles = rng.uniform(0, 2 * np.pi, m)
-        normals = np.column_stack([np.cos(angles), np.sin(angles)])
-        bounds = -np.abs(rng.normal(size=m)) * rng.integers(0, 2, size=m) * 0.3
-        v = rng.normal(size=2)
-        rows = [(n[0], n[1], b, "r") for n, b in zip(normals, bounds)]
-        x, y, ok = project_2d(v[0], v[1], rows)
-        assert ok
-        # slide is within 1e-9 of exact; nearly antiparallel rows through one point cost it ~1e-9.
-        np.testing.assert_allclose([x, y], slide(v, normals, bounds), atol=2e-9)

@@ -39,7 +39,7 @@ from cobotsafety.errors import CobotSafetyError, RecordingError
 from cobotsafety.human.recording import bundled_recording
 
 logger = logging.getLogger(__name__)
-logging.getLogger("cobotsafety.filter").addFilter(RepeatedWarningFilter())
+logging.getLogger("cobotsafety.arm.controller").addFilter(RepeatedWarningFilter())
 
 
 @dataclass(frozen=True)

@@ -29,9 +29,11 @@ else refused). Around the filter:
   ``grow_after_s`` it grows: every capsule's radius by ``growth_speed_m_s`` times the excess
   age (a person can have moved that far); older than ``stop_after_s`` the arm brakes to a stop.
   ``StepReport.human_status`` says which.
-* **SSM** (``ssm = True``): ISO/TS 15066 speed and separation monitoring: the arm's approach to
-  the human limited to the standard's speed for the separation, and a protective stop when the
-  separation falls below the protective distance at the arm's approach speed.
+* **SSM** (``ssm``: ``"off"``, ``"scaling"``, ``"stop"`` or ``"both"``; ``True`` is ``"both"``):
+  ISO/TS 15066 speed and separation monitoring (``arm.ssm``): *speed scaling*, the arm's approach
+  to the human at most the standard's speed for the separation; the *protective stop*, the arm
+  brakes to a stop while the separation is below the protective distance ``S`` at its approach
+  speed.
 """
 
 from __future__ import annotations
@@ -50,7 +52,8 @@ from cobotsafety.arm.limitations.registry import pack_scene
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, OUT_I_HEADER, OWNER_EE_MOTION,
+from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_SSM, FLAG_STOP, OUT_I_HEADER,
+                                         OWNER_EE_MOTION,
                                          OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY, STATUS_DONE, STRATEGIES, arm_step,
                                          decode_row, output_layout)
 from cobotsafety.arm.step_report import ArmStepReport
@@ -71,6 +74,8 @@ YIELD_DWELL_S = 0.3
 #: periods up to 10 ms). Longer than ``MAX_PERIOD_S`` [s]: refused.
 MAX_STEP_S = 0.010
 MAX_PERIOD_S = 1.0
+SSM_MODES = ("off", "scaling", "stop", "both")
+SSM_MODES_BY_VALUE = {False: "off", True: "both"}
 _STRATEGY_CODES = {name: code for code, name in enumerate(STRATEGIES)}
 _ANTICIPATIVE, _OFF = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"]
 _FLOAT = np.dtype(float)
@@ -155,7 +160,7 @@ class ArmController:
 
     def __init__(self, robot: str = DEFAULT_ROBOT, zones: list | None = None, *,
                  settings: FilterSettings | None = None, human: HumanLimitation | None = None,
-                 capsules: str = "fitted", ssm: bool = False, watchdog: HumanWatchdog = HumanWatchdog(),
+                 capsules: str = "fitted", ssm: bool | str = "off", watchdog: HumanWatchdog = HumanWatchdog(),
                  table: bool = True, reach: bool = True):
         self.model = RobotModel.load(robot, capsules)
         self.settings = settings or FilterSettings()
@@ -351,7 +356,11 @@ class ArmController:
         v = self._command(v_user, moving, strategy)
         yielding = strategy == _ANTICIPATIVE and self.clock_s < self.yield_until_s
         human_f, human_status, watchdog_stop = self._human_now()
-        flags = FLAG_ORIENTATION | (FLAG_SSM if self.ssm else 0) | (FLAG_STOP if watchdog_stop else 0)
+        mode = SSM_MODES_BY_VALUE.get(self.ssm, self.ssm)
+        if mode not in SSM_MODES:
+            raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
+        flags = (FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") else 0)
+                 | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0) | (FLAG_STOP if watchdog_stop else 0))
         ahead = self.clock_s - self._human_given_s if self._human.present else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.p_world_ee

@@ -1,16 +1,17 @@
 """The arm filter's settings, each with its unit and the principle it was chosen by.
 
 ``FilterSettings.vector()`` lays them out in the order the compiled step reads them
-(``step_kernel.unpack_settings``); the two are held equal by ``tests/test_arm_step.py``.
+(``step_kernel.arm_step`` unpacks them in the same order).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from cobotsafety.arm.ssm import SsmParams
 from cobotsafety.errors import CobotSafetyError
 
 
@@ -46,9 +47,9 @@ class FilterSettings:
     * ``field_*``: paper 2's potential field (the ``reactive`` strategy): repulsion
       ``k_rep (d_o / (d - d_cr) - 1)`` within ``d_cr + d_o`` of the human (eq. 18), at most
       ``field_max_repulsion_m_s``; ``field_damping`` is eqs. 16 and 20's lambda.
-    * ``ssm_*``: ISO/TS 15066 speed and separation monitoring (``cobotsafety.control.ssm``):
-      the human's speed (ISO 13855's 1.6 m/s walking), reaction and stopping times, intrusion
-      and the position uncertainties of human and robot.
+    * ``ssm``: ISO/TS 15066 speed and separation monitoring's terms (``cobotsafety.arm.ssm``):
+      the human's speed (ISO 13855's 1.6 m/s walking), the reaction time, the robot's braking,
+      the intrusion and the position uncertainties of human and robot.
     """
 
     max_speed_m_s: float = 0.5
@@ -69,15 +70,12 @@ class FilterSettings:
     field_k_rep_m_s: float = 0.08
     field_max_repulsion_m_s: float = 1.0
     field_damping: float = 1e-3
-    ssm_human_speed_m_s: float = 1.6
-    ssm_reaction_time_s: float = 0.1
-    ssm_stopping_time_s: float = 0.3
-    ssm_intrusion_m: float = 0.0
-    ssm_human_uncertainty_m: float = 0.05
-    ssm_robot_uncertainty_m: float = 0.01
+    ssm: SsmParams = field(default_factory=SsmParams)
 
     def __post_init__(self):
         for f in fields(self):
+            if f.name == "ssm":
+                continue
             value = getattr(self, f.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value)):
                 raise SettingsError(f"FilterSettings.{f.name} must be a finite number, got {value!r}")
@@ -89,5 +87,7 @@ class FilterSettings:
             raise SettingsError(f"FilterSettings.brake_share must be <= 1, got {self.brake_share}")
 
     def vector(self) -> np.ndarray:
-        """The settings as the compiled step reads them, in field order."""
-        return np.array(astuple(self), dtype=float)
+        """The settings as the compiled step reads them: the numbers in field order, then
+        ``ssm.vector()``."""
+        numbers = [getattr(self, f.name) for f in fields(self) if f.name != "ssm"]
+        return np.concatenate([np.array(numbers, dtype=float), self.ssm.vector()])

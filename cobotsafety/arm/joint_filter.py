@@ -18,14 +18,16 @@ Every row is a half-space ``a . qdot >= b`` (``tests/test_arm_joint_filter.py`` 
 result equal to quadprog's on random problems), in four groups by priority:
 
 * ``LIMITATION``: each limitation's *safety* bound, the approach from which the arm can still
-  brake before it with its full motion limits (``braking.safe_speed``), and the end-effector
-  speed cap (a norm: ``||J qdot|| <= cap``, met by adding its tangent plane at the solution as a
-  row, at most ``SPEED_CUTS`` times): hard;
+  brake before it with its full motion limits (``braking.safe_speed``), and the robot's own
+  end-effector speed limit: hard;
 * ``VELOCITY``: each joint's speed limit: hard;
 * ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
   velocities the next step may take from the previous one;
 * ``PLAN``: each limitation's *planning* bound, the same with a share of the motion limits
-  (``FilterSettings.brake_share``): the arm plans to brake gently, and has the rest in reserve.
+  (``FilterSettings.brake_share``): the arm plans to brake gently, and has the rest in reserve;
+  and the command's speed cap. The end-effector's speeds are norms (``||J qdot|| <= cap``),
+  met by adding the ball's tangent plane at the solution as a row, at most ``SPEED_CUTS``
+  times.
 
 Priorities, from the strictest: the hard rows always; then the motion rows (the plan's margin
 gives way first, by least squares, ``least_distance.relax_kernel``); then, only when the hard
@@ -121,9 +123,10 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
 
 
 @numba.njit(cache=True)
-def filter_rows(q0, B, N, b, group, count, J, speed_cap):  # pragma: no cover - compiled
+def filter_rows(q0, B, N, b, group, count, J, speed_cap, speed_limit):  # pragma: no cover - compiled
     """The filtered joint velocity for the rows ``N[:count] @ qdot >= b[:count]`` (groups
-    ``group``), ``qdot = q0 + B z``, and the end-effector speed ``||J qdot|| <= speed_cap``.
+    ``group``), ``qdot = q0 + B z``, and the end-effector's speed: ``||J qdot|| <= speed_cap``
+    (the command's cap: planned, a ``PLAN`` row) and ``<= speed_limit`` (the robot's: hard).
 
     ``N``, ``b``, ``group`` have room for ``SPEED_CUTS`` more rows after ``count``. Returns
     ``(qdot (nv,), violation (rows,), level, rows)``: how much each row's bound was given up
@@ -139,11 +142,12 @@ def filter_rows(q0, B, N, b, group, count, J, speed_cap):  # pragma: no cover - 
         if speed <= speed_cap * (1.0 + 1e-9):
             break
         # The cap's tangent plane at the solution: e . (J qdot) <= cap, e = J qdot / |J qdot|.
+        hard = speed > speed_limit * (1.0 + 1e-9)
         e = ee / speed
         for k in range(N.shape[1]):
             N[rows, k] = -(e[0] * J[0, k] + e[1] * J[1, k] + e[2] * J[2, k])
-        b[rows] = -speed_cap
-        group[rows] = LIMITATION
+        b[rows] = -(speed_limit if hard else speed_cap)
+        group[rows] = LIMITATION if hard else PLAN
         rows += 1
         qdot, violation, level = _solve(q0, B, N, b, group, rows, level)
     return qdot, violation, level, rows

@@ -51,14 +51,16 @@ from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integ
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
+from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
 from cobotsafety.geometry.capsule import capsule_pair
 from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
 STRATEGIES = ("anticipative", "stop", "reactive", "off")
-#: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM; brake to a stop.
-FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP = 1, 2, 4
+#: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM's speed scaling; brake to a
+#: stop; SSM's protective stop.
+FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE = 1, 2, 4, 8
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop; then the binding rows' codes,
 #: then the motion-limited rows' codes.
@@ -207,8 +209,8 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, dt_s, acc, jerk, vel,
-                      ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
+def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, ee_speed_prev, dt_s, acc,
+                      jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
                       speed_cap, ssm, ssm_params, plan, keep_plan, safety, keep_safety):  # pragma: no cover - compiled
     """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
     limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
@@ -234,6 +236,9 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
         if abs(qdot_prev[j]) > 1e-9:
             stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
             stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
+    if ee_speed_prev > 1e-9:  # the hand stops with the arm: within its own limits too
+        stop_decel = min(stop_decel, EE_MOTION_SHARE * ee_acc / ee_speed_prev)
+        stop_jerk = min(stop_jerk, EE_MOTION_SHARE * ee_jerk / ee_speed_prev)
     for i in range(count):
         decel, jerk_n, reach, own_speed, own_accel = 0.0, 0.0, 0.0, 0.0, 0.0
         for j in range(nv):
@@ -279,30 +284,12 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
                 if desired < 0.0:
                     plan_bound = max(plan_bound, gap / width * desired - min(rate[i], 0.0))
         if ssm and np.isfinite(separation[i]):
-            limit = -ssm_approach_speed(separation[i], ssm_params)
+            limit = -approach_speed_kernel(separation[i], ssm_params)
             plan_bound, safety_bound = max(plan_bound, limit), max(safety_bound, limit)
         plan[i], safety[i] = min(plan_bound, cap), min(safety_bound, cap)
         keep_plan[i] = plan[i] > -reach - 1e-12
         keep_safety[i] = safety[i] > -reach - 1e-12
     return worst_factor
-
-
-@numba.njit(cache=True)
-def ssm_approach_speed(separation_m, ssm_params):  # pragma: no cover - compiled
-    """ISO/TS 15066's largest robot speed toward the human [m/s] at ``separation_m`` [m]:
-    ``(S - v_h (T_r + T_s) - C - Z_d - Z_r) / (T_r + T_s / 2)``, at least 0."""
-    v_h, t_r, t_s, c, z_d, z_r = ssm_params[0], ssm_params[1], ssm_params[2], ssm_params[3], ssm_params[4], \
-        ssm_params[5]
-    return max((separation_m - v_h * (t_r + t_s) - c - z_d - z_r) / (t_r + 0.5 * t_s), 0.0)
-
-
-@numba.njit(cache=True)
-def ssm_protective_distance(robot_speed_m_s, ssm_params):  # pragma: no cover - compiled
-    """ISO/TS 15066's protective separation distance ``S_p`` [m] for a robot approaching at
-    ``robot_speed_m_s``: ``v_h (T_r + T_s) + v_r T_r + v_r T_s / 2 + C + Z_d + Z_r``."""
-    v_h, t_r, t_s, c, z_d, z_r = ssm_params[0], ssm_params[1], ssm_params[2], ssm_params[3], ssm_params[4], \
-        ssm_params[5]
-    return v_h * (t_r + t_s) + robot_speed_m_s * (t_r + 0.5 * t_s) + c + z_d + z_r
 
 
 @numba.njit(cache=True)
@@ -356,6 +343,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     speed_cap = min(reference_f[9], max_speed, ee_limits[0])
     with_orientation, ssm, force_stop = (flags & FLAG_ORIENTATION) != 0, (flags & FLAG_SSM) != 0, \
         (flags & FLAG_STOP) != 0
+    ssm_stop = (flags & FLAG_PROTECTIVE) != 0
     ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
     out_i[:] = 0
     out_f[:] = 0.0
@@ -435,11 +423,14 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     keep = np.ones(m, dtype=np.bool_)
     safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
     safe_keep = np.ones(m, dtype=np.bool_)
-    brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, dt_s, acc,
+    ee_velocity_prev = matvec(J, qdot_prev)
+    ee_speed_prev = np.sqrt(np.sum(ee_velocity_prev * ee_velocity_prev))
+    brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, ee_speed_prev,
+                                     dt_s, acc,
                                      jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
                                      width_m, width_rad, speed_cap, ssm, ssm_params, bounds, keep, safe_bounds,
                                      safe_keep)
-    if ssm and n_human > 0 and strategy != OFF:
+    if ssm_stop and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
         approach = 0.0
         for i in range(m):
@@ -449,7 +440,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                     toward -= A[i, j] * qdot_prev[j]
                 approach = max(approach, toward)
         for i in range(m):
-            if is_human[i] and separation[i] < ssm_protective_distance(approach, ssm_params):
+            if is_human[i] and separation[i] < separation_kernel(approach, ssm_params):
                 protective = True
     if strategy == STOP:
         for i in range(m):
@@ -459,6 +450,11 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                     rate_q0 += A[i, j] * q0[j]
                 if rate_q0 < bounds[i] - 1e-12:
                     stopped = True
+        # The stop baseline never moves away from a limitation (a person walking at it meets a
+        # robot that holds still): its bounds ask at most for standstill.
+        for i in range(m):
+            bounds[i] = min(bounds[i], 0.0)
+            safe_bounds[i] = min(safe_bounds[i], 0.0)
     if stopped or protective or force_stop:
         q0 = np.zeros(nv)
     # ---- 4. the rows the filter keeps ----------------------------------------------------------
@@ -475,7 +471,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
             if strategy == REACTIVE and is_human[i]:
                 if not ssm:
                     continue  # the field itself answers the human
-                safety = -ssm_approach_speed(separation[i], ssm_params)  # its SSM layer only
+                safety = -approach_speed_kernel(separation[i], ssm_params)  # its SSM layer only
                 with_plan, with_safety = False, True
             row = row_code(tag[i, 0], tag[i, 1], tag[i, 2])
             if with_safety:
@@ -519,7 +515,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
             count += 1
     # ---- 5. filter -----------------------------------------------------------------------------
     cap = speed_cap if strategy != OFF else ee_speed
-    qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap)
+    qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap, ee_speed)
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
     # ---- 6. integrate and re-check --------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 Fixed before any of the numbers they produce was measured (issue 24, item 1), the same for
 every scenario, robot and controller, each from the paper, from ISO/TS 15066's protective
-separation distance (``cobotsafety.control.ssm``) or from a stated principle; nothing here was
+separation distance (``cobotsafety.arm.ssm``) or from a stated principle; nothing here was
 chosen by looking at a result. Speeds the robot reaches are results, reported, never capped to
 match the paper.
 
@@ -41,7 +41,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from cobotsafety.control.ssm import SsmParams, protective_separation_m
+from cobotsafety.arm.ssm import SsmParams, protective_separation_m
 
 SSM = SsmParams()
 SPEED_LIMIT_M_S = 0.5

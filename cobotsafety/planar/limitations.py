@@ -3,9 +3,10 @@
 Each limitation reports, at the current kinematics, one or more ``Measure``: a signed distance
 ``d`` (positive where allowed; [m], or [rad] for joints) and its gradient ``(gx, gy)`` with
 respect to the commanded end-effector velocity, so that ``d_dot = gx * vx + gy * vy``. The
-half-space is then ``(g / |g|) . v >= approach_bound(d, ...) / |g|`` (see
-``cobotsafety.constraint.approach_bound``): sliding at the limit, a damped zone before it, and no
-step of ``dt`` that can cross it.
+half-space is then ``(g / |g|) . v >= approach_bound(d, ...) / |g|`` (``approach_bound``
+below): sliding at the limit, a damped zone before it, and no step of ``dt`` that can cross it.
+The planar step projects the command onto those rows with the package's one projection
+(``cobotsafety.least_distance``).
 
   A base collision circle, C inner reach, F end-effector circle zone: ``CircleKeepOut``
   E extended reach: ``CircleKeepIn``
@@ -19,9 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-import numpy as np
 
-from cobotsafety.constraint import Constraint, HalfSpaces, approach_bound
 from cobotsafety.planar.rr_arm import Kinematics
 
 
@@ -39,7 +38,25 @@ class Damping:
     width_rad: float = 0.0
 
 
-class PlanarLimitation(Constraint):
+def approach_bound(distance: float, dt_s: float, v_normal_desired: float = 0.0, damping_width: float = 0.0) -> float:
+    """Lower bound on ``normal @ v`` [m/s] for a limitation at signed ``distance`` [m or rad].
+
+    Three rules: with ``d >= 0`` one step of ``dt_s`` may close at most the remaining gap,
+    ``normal @ v >= -d / dt_s``; with ``d < 0`` (already inside) only motions that do not deepen
+    the violation, ``normal @ v >= 0``; and paper 1's damped zone (III.C.1): within
+    ``damping_width`` of the limit the allowed approach shrinks in proportion to the distance,
+    from the desired normal speed ``v_normal_desired`` at the zone's edge to zero at the limit
+    (``damping_width = 0``: the hard limitation).
+    """
+    if distance <= 0.0:
+        return 0.0
+    bound = -distance / dt_s
+    if damping_width > 0.0 and distance < damping_width and v_normal_desired < 0.0:
+        bound = max(bound, (distance / damping_width) * v_normal_desired)
+    return bound
+
+
+class PlanarLimitation:
     """Base class: subclasses implement ``measures(kin)``."""
 
     name: str
@@ -62,15 +79,6 @@ class PlanarLimitation(Constraint):
              max_speed_m_s: float, out: list) -> None:
         """Append the active rows ``(nx, ny, bound, name)`` (unit normal, bound in m/s) to ``out``."""
         rows_from_measures(self.measures(kin), vx, vy, dt_s, damping, max_speed_m_s, out)
-
-    def halfspaces(self, state: Kinematics, v_desired: np.ndarray, dt_s: float,
-                   damping: Damping = Damping(), max_speed_m_s: float = 1.0) -> HalfSpaces | None:
-        out: list = []
-        self.rows(state, float(v_desired[0]), float(v_desired[1]), dt_s, damping, max_speed_m_s, out)
-        if not out:
-            return None
-        rows = np.array([r[:3] for r in out])
-        return HalfSpaces(rows[:, :2], rows[:, 2], tuple(r[3] for r in out))
 
     def distance(self, state: Kinematics) -> float:
         return min(m[0] for m in self.measures(state))

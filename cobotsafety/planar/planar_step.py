@@ -16,7 +16,7 @@
    distance is 1-Lipschitz in the motion of the arm's points (lengths) or of the joints
    (angles; |d sin(theta_2)| <= |d theta_2|), and in one step no point of the arm moves more
    than ``(L1 + L2) |d theta_1| + L2 |d theta_2|``, no joint more than ``max |d theta_i|``, so a
-   limitation farther than that cannot be crossed (as ``arm.step.integrate_with_safety_net``).
+   limitation farther than that cannot be crossed (as the 3D arm's safety net, ``arm.step_kernel``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,9 @@ from dataclasses import dataclass, field
 from cobotsafety.planar.rr_arm import Kinematics, PlanarArm
 from cobotsafety.planar.baselines import ReactiveParams, reactive_command
 from cobotsafety.planar.limitations import Damping, Measure, PlanarLimitation, rows_from_measures
-from cobotsafety.planar.project2d import project_2d
+import numpy as np
+
+from cobotsafety.least_distance import SOLVED, slide_kernel
 
 logger = logging.getLogger(__name__)
 
@@ -78,6 +80,20 @@ def _clamp(vx: float, vy: float, max_speed: float) -> tuple[float, float]:
     return vx, vy
 
 
+def project(vx: float, vy: float, rows: list) -> tuple[float, float, bool]:
+    """The command closest to ``(vx, vy)`` [m/s] on the rows ``(nx, ny, bound, name)``
+    (``cobotsafety.least_distance``, the package's one projection); ``ok`` False (and zero) when
+    the rows contradict each other."""
+    if not rows:
+        return vx, vy, True
+    normals = np.array([(r[0], r[1]) for r in rows])
+    bounds = np.array([r[2] for r in rows])
+    x, status, _ = slide_kernel(np.array([vx, vy]), normals, bounds)
+    if status != SOLVED:
+        return 0.0, 0.0, False
+    return float(x[0]), float(x[1]), True
+
+
 def measures(scene: PlanarScene, kin: Kinematics) -> list[Measure]:
     """Every limitation's signed distances and gradients at ``kin``."""
     return [m for limitation in scene.limitations for m in limitation.measures(kin)]
@@ -103,7 +119,7 @@ def step(state: PlanarState, v_desired: tuple[float, float], dt_s: float, scene:
     rows: list = []
     if method == "anticipative":
         rows_from_measures(now, vx_d, vy_d, dt_s, scene.damping, scene.max_speed_m_s, rows)
-        vx, vy, ok = project_2d(vx_d, vy_d, rows)
+        vx, vy, ok = project(vx_d, vy_d, rows)
         binding = tuple(r[3] for r in rows if r[0] * vx + r[1] * vy <= r[2] + 1e-9)
         stopped = not ok
     elif method == "stop":

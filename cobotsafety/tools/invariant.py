@@ -1,8 +1,12 @@
 """Random teleoperation runs that count limit crossings: ``python -m cobotsafety.tools.invariant``.
 
 Commands hold a random direction (speeds up to 1 m/s, above the 0.5 m/s cap) for 100 steps at
-dt = 2 ms, among the default zones. Counts joint-limit crossings (beyond 1e-9 rad), capsule-zone
-penetrations deeper than before (beyond 1e-6 m) and steps with a non-finite state.
+``--dt`` (1 ms), among the demo's protection zones, on ``ArmController``. Counted, against
+checks independent of the controller: joint-limit crossings (beyond 1e-9 rad, from the model's
+limits), capsule-zone penetrations deeper than before (beyond 1e-6 m, distances by coal, the
+collision library pinocchio uses), steps with a non-finite state, steps where the safety net
+scaled the step, and steps where a limitation needed more than the motion limits
+(``safety_over_smoothness``).
 """
 
 from __future__ import annotations
@@ -12,31 +16,80 @@ import json
 
 import numpy as np
 
-from cobotsafety.arm.constraints import JointPositionLimits
-from cobotsafety.arm.teleop import ArmTeleop
+
+def _coal_zone(zone):
+    """``(geometry, transform)`` of a protection zone in coal (independent of our distances)."""
+    import coal
+
+    from cobotsafety.arm.limitations import BoxZone, CapsuleZone, HalfSpaceZone, SphereZone
+
+    transform = coal.Transform3s()
+    if isinstance(zone, BoxZone):
+        transform.setTranslation(np.asarray(zone.center, dtype=float))
+        return coal.Box(*(2.0 * np.asarray(zone.half_size, dtype=float))), transform
+    if isinstance(zone, SphereZone):
+        transform.setTranslation(np.asarray(zone.center, dtype=float))
+        return coal.Sphere(zone.radius_m), transform
+    if isinstance(zone, CapsuleZone):
+        return _coal_capsule(np.asarray(zone.p0, dtype=float), np.asarray(zone.p1, dtype=float), zone.radius_m)
+    if isinstance(zone, HalfSpaceZone):
+        n = np.asarray(zone.normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        # The forbidden side {x: n . (x - point) >= 0} is coal's solid {x: (-n) . x <= -n . point}.
+        return coal.Halfspace(-n, float(-n @ np.asarray(zone.point, dtype=float))), transform
+    raise TypeError(f"no coal shape for {zone!r}")
 
 
-def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.002) -> dict:
+def _coal_capsule(p0: np.ndarray, p1: np.ndarray, radius: float):
+    """A coal capsule (axis along its frame's z, centred) from a segment and a radius."""
+    import coal
+
+    axis = p1 - p0
+    length = float(np.linalg.norm(axis))
+    z = axis / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    rotation = np.column_stack([x, np.cross(z, x), z])
+    transform = coal.Transform3s(rotation, 0.5 * (p0 + p1))
+    return coal.Capsule(radius, max(length, 1e-9)), transform
+
+
+def zone_distances(state, zones, skip: int = 1) -> np.ndarray:
+    """Signed distance [m] of every robot capsule (from ``skip`` on) to every zone, by coal."""
+    import coal
+
+    request, out = coal.DistanceRequest(), []
+    request.enable_signed_distance = True
+    for zone in zones:
+        shape, transform = _coal_zone(zone)
+        for c in range(skip, len(state.capsule_radius)):
+            capsule, pose = _coal_capsule(state.capsule_p0[c], state.capsule_p1[c], float(state.capsule_radius[c]))
+            out.append(coal.distance(shape, transform, capsule, pose, request, coal.DistanceResult()))
+    return np.array(out)
+
+
+def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.001) -> dict:
+    """One run: ``steps`` random-teleoperation steps of ``robot``; the counts as a dict."""
+    from cobotsafety.arm.controller import ArmController
+
     rng = np.random.default_rng(seed)
-    teleop = ArmTeleop(robot)
-    joints = JointPositionLimits()
-    state = teleop.state
+    controller = ArmController(robot)
+    state, model = controller.state, controller.model
+    iq = model.limited[:, 0]
 
     def distances():
-        # The zones' exact distances (not ``ZoneConstraint``'s bounded ones): the oracle.
-        s = 1  # the base link stands on the table and is not checked, as in the step
-        exact = [z.capsule_distances(state.capsule_p0[s:], state.capsule_p1[s:], state.capsule_radius[s:])[0]
-                 for z in teleop.zones]
-        return joints.distances(state), np.concatenate(exact)
+        q = state.q
+        return np.concatenate([q[iq] - model.lower[iq], model.upper[iq] - q[iq]]), zone_distances(state, controller.zones)
 
     joint_before, zone_before = distances()
-    counts = {"robot": robot, "steps": steps, "joint_crossings": 0, "zone_penetrations": 0,
-              "nan_steps": 0, "safety_net_steps": 0, "stopped_steps": 0}
+    counts = {"robot": robot, "steps": steps, "dt_s": dt_s, "joint_crossings": 0, "zone_penetrations": 0,
+              "nan_steps": 0, "safety_net_steps": 0, "safety_over_smoothness_steps": 0, "stopped_steps": 0}
     direction = np.zeros(3)
     for i in range(steps):
         if i % 100 == 0:
             direction = rng.normal(size=3) * rng.uniform(0.05, 1.0)
-        report = teleop.step(direction, dt_s, "anticipative")
+        report = controller.step(direction, dt_s, "anticipative")
         if not np.all(np.isfinite(state.q)):
             counts["nan_steps"] += 1
             break
@@ -44,10 +97,9 @@ def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.002) ->
         counts["joint_crossings"] += int(np.sum(joint_after < np.minimum(joint_before, 0) - 1e-9))
         counts["zone_penetrations"] += int(np.sum(zone_after < np.minimum(zone_before, 0) - 1e-6))
         counts["safety_net_steps"] += report.extras["net_scale"] < 1.0
+        counts["safety_over_smoothness_steps"] += report.safety_over_smoothness
         counts["stopped_steps"] += report.stopped
         joint_before, zone_before = joint_after, zone_after
-    packed = getattr(teleop, "packed", None)
-    counts["fast_path_fallbacks"] = dict(packed.fallbacks) if packed is not None else None
     return counts
 
 
@@ -57,9 +109,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", action="append", choices=list(ROBOTS), help="default: every robot")
     parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--dt", type=float, default=0.001, help="control period [s] (default 1 ms)")
     args = parser.parse_args(argv)
+    if args.steps < 1 or not (0.0 < args.dt <= 0.01):
+        parser.error("--steps must be >= 1 and --dt in (0, 0.01] s")
     for robot in args.robot or list(ROBOTS):
-        print(json.dumps(run_invariant(robot, args.steps)), flush=True)
+        print(json.dumps(run_invariant(robot, args.steps, dt_s=args.dt)), flush=True)
     return 0
 
 

@@ -46,7 +46,7 @@ def prepare_trial_robot(robot, scene: str) -> None:
 
 def make_trial_robot(scene: str, robot_name: str = "panda"):
     """``(robot, course)`` for a headless trial: the same robot class the browser trial drives
-    (``app.scenes``: ``PlanarTeleop``, or ``HumanAwareTeleop`` with nobody in the cell), prepared
+    (``app.scenes``: ``PlanarTeleop``, or ``ArmController`` with nobody in the cell), prepared
     by ``prepare_trial_robot``."""
     course = trial_course(scene)
     if scene == "planar":
@@ -54,9 +54,9 @@ def make_trial_robot(scene: str, robot_name: str = "panda"):
 
         robot = PlanarTeleop()
     else:
-        from cobotsafety.control.human_aware import HumanAwareTeleop  # noqa: PLC0415
+        from cobotsafety.arm.controller import ArmController  # noqa: PLC0415
 
-        robot = HumanAwareTeleop(robot_name)
+        robot = ArmController(robot_name)
     prepare_trial_robot(robot, scene)
     return robot, course
 

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.optimize import brentq
 
-from cobotsafety.control.ssm import (SsmParams, braking_deceleration_m_s2, max_approach_speed_m_s,
+from cobotsafety.arm.ssm import (SsmParams, braking_deceleration_m_s2, max_approach_speed_m_s,
                                      protective_separation_m, protective_stop, stopping_distance_m,
                                      stopping_time_s)
 

@@ -24,7 +24,9 @@ Two uses of it, named apart:
   separation, the bound on the speed toward the human that keeps ``S`` met (motion away from
   the human is not limited). ``ssm_halfspaces`` writes that bound as half-spaces on a command.
 
-Everything here is stateless; the controller calls it.
+Everything here is stateless. ``separation_kernel`` and ``approach_speed_kernel`` are the one
+implementation (compiled: the arm's step calls them on each human row, with
+``SsmParams.vector()``); the functions below take arrays and call them.
 """
 
 from __future__ import annotations
@@ -34,8 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cobotsafety.arm.constraints import Measures
-from cobotsafety.constraint import HalfSpaces
+import numba
 
 #: ISO 13855's walking speed [m/s] (used by ISO/TS 15066 when the human's speed is not measured).
 ISO_13855_HUMAN_SPEED_M_S = 1.6
@@ -53,8 +54,8 @@ class SsmParams:
     (3.6 ms at 275 Hz); 0.1 s covers it with a margin."""
     braking_m_s2: float = 3.0
     """a: the robot's deceleration at the approaching point [m/s^2] (T_s = v_r / a,
-    B = v_r^2 / 2a). Default: the arm step's own acceleration bound (``ArmParams.max_accel_m_s2``);
-    take the smaller of it and ``braking_deceleration_m_s2`` of the robot's joint limits."""
+    B = v_r^2 / 2a). Default 3 m/s^2 (a conservative arm's braking); take the smaller of it and
+    ``braking_deceleration_m_s2`` of the robot's joint acceleration limits."""
     intrusion_m: float = 0.0
     """C: intrusion distance [m]; the capsules already cover the arms and hands."""
     sensor_uncertainty_m: float = 0.05
@@ -76,6 +77,35 @@ class SsmParams:
         return max_approach_speed_m_s(separation_m, self)
 
 
+    def vector(self) -> np.ndarray:
+        """``(v_h, T_r, a, C, Z_d, Z_r)`` as the compiled functions read them."""
+        return np.array([self.human_speed_m_s, self.reaction_time_s, self.braking_m_s2, self.intrusion_m,
+                         self.sensor_uncertainty_m, self.robot_uncertainty_m], dtype=float)
+
+
+@numba.njit(cache=True)
+def separation_kernel(robot_speed_m_s, params):  # pragma: no cover - compiled
+    """S [m] for a robot approaching at ``robot_speed_m_s`` [m/s] (negative: moving away, 0);
+    ``params`` is ``SsmParams.vector()``."""
+    v_h, t_r, a, c, z_d, z_r = params[0], params[1], params[2], params[3], params[4], params[5]
+    v_r = max(robot_speed_m_s, 0.0)
+    t_s = v_r / a
+    return v_h * (t_r + t_s) + v_r * t_r + v_r * v_r / (2.0 * a) + c + z_d + z_r
+
+
+@numba.njit(cache=True)
+def approach_speed_kernel(separation_m, params):  # pragma: no cover - compiled
+    """The largest ``v_r`` >= 0 [m/s] with ``S(v_r) <= separation_m``: the positive root of
+    ``v^2 / 2a + v (T_r + v_h / a) + (v_h T_r + C + Z_d + Z_r - separation) = 0`` (0 where even a
+    robot at rest is too close)."""
+    v_h, t_r, a, c, z_d, z_r = params[0], params[1], params[2], params[3], params[4], params[5]
+    b = t_r + v_h / a
+    constant = v_h * t_r + c + z_d + z_r - separation_m
+    if constant >= 0.0:
+        return 0.0
+    return (-b + np.sqrt(b * b - 2.0 * constant / a)) * a
+
+
 def stopping_time_s(robot_speed_m_s, braking_m_s2: float):
     """T_s [s]: time to brake from ``robot_speed_m_s`` [m/s] to standstill at ``braking_m_s2``."""
     return np.maximum(np.asarray(robot_speed_m_s, dtype=float), 0.0) / braking_m_s2
@@ -90,10 +120,10 @@ def stopping_distance_m(robot_speed_m_s, braking_m_s2: float):
 def protective_separation_m(robot_speed_m_s, params: SsmParams = SsmParams()):
     """S [m] (ISO/TS 15066 eq. 2) for a robot approaching at ``robot_speed_m_s`` [m/s] (scalar
     or array; negative speeds, i.e. moving away, count as 0)."""
-    v_r = np.maximum(np.asarray(robot_speed_m_s, dtype=float), 0.0)
-    t_s = stopping_time_s(v_r, params.braking_m_s2)
-    return (params.human_speed_m_s * (params.reaction_time_s + t_s) + v_r * params.reaction_time_s
-            + stopping_distance_m(v_r, params.braking_m_s2) + params.margin_m)
+    vector = params.vector()
+    v = np.asarray(robot_speed_m_s, dtype=float)
+    out = np.array([separation_kernel(float(x), vector) for x in v.ravel()]).reshape(v.shape)
+    return out if out.ndim else float(out)
 
 
 def protective_stop(separation_m, robot_speed_m_s, params: SsmParams = SsmParams()):
@@ -104,13 +134,11 @@ def protective_stop(separation_m, robot_speed_m_s, params: SsmParams = SsmParams
 
 def max_approach_speed_m_s(separation_m, params: SsmParams = SsmParams()):
     """The largest ``v_r`` >= 0 [m/s] with ``S(v_r) <= separation_m`` (0 where even a robot at
-    rest is too close): speed scaling. Solves ``v^2 / 2a + v (T_r + v_h / a) + (v_h T_r + C +
-    Z_d + Z_r - separation) = 0`` for its positive root."""
-    a = params.braking_m_s2
-    b = params.reaction_time_s + params.human_speed_m_s / a
-    c = params.human_speed_m_s * params.reaction_time_s + params.margin_m - np.asarray(separation_m, dtype=float)
-    root = (-b + np.sqrt(b * b - 2.0 * c / a)) * a  # (-b + sqrt(b^2 - 4 (1/2a) c)) / (2 / 2a)
-    return np.where(c < 0.0, root, 0.0)
+    rest is too close): speed scaling."""
+    vector = params.vector()
+    s = np.asarray(separation_m, dtype=float)
+    out = np.array([approach_speed_kernel(float(x), vector) for x in s.ravel()]).reshape(s.shape)
+    return out if out.ndim else float(out)
 
 
 def braking_deceleration_m_s2(J_point: np.ndarray, max_joint_accel_rad_s2: np.ndarray,
@@ -126,16 +154,3 @@ def braking_deceleration_m_s2(J_point: np.ndarray, max_joint_accel_rad_s2: np.nd
     limits = np.asarray(max_joint_accel_rad_s2, dtype=float)
     moving = rows > 1e-12
     return float(np.min(limits[moving] / rows[moving])) if moving.any() else math.inf
-
-
-def ssm_halfspaces(human_measures: Measures, critical_m: float, M: np.ndarray, c: np.ndarray,
-                   params: SsmParams) -> HalfSpaces:
-    """Speed scaling as half-spaces on the command: each robot capsule's speed toward the human
-    at most ``max_approach_speed_m_s`` of its separation. ``human_measures`` are the human
-    constraint's measures (distance = separation - ``critical_m``); ``qdot = M v + c``."""
-    if human_measures.distance.size == 0:
-        return HalfSpaces.empty(M.shape[1])
-    separation = human_measures.distance + critical_m
-    normals = human_measures.A @ M
-    bounds = -max_approach_speed_m_s(separation, params) - human_measures.A @ c
-    return HalfSpaces(normals, bounds, tuple(f"SSM {n}" for n in human_measures.names))
