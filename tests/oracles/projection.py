@@ -47,3 +47,18 @@ def quadprog_relaxation(v_desired, normals, bounds, soft, floor, slack=1e-12):
     relaxed = bounds - violation
     v = quadprog.solve_qp(np.eye(n), v_desired, normals.T.copy(), relaxed - slack)[0]
     return v, violation
+
+
+def kkt_residual(v, v_desired, normals, bounds, active_tol=1e-9) -> float:
+    """How far ``v`` is from the projection's optimality conditions: the largest row violation
+    and the residual of ``v - v_desired = normals_active^T lambda, lambda >= 0`` (bounded
+    least squares over the rows within ``active_tol`` of their bound)."""
+    from scipy.optimize import lsq_linear
+
+    slack = normals @ v - bounds
+    active = slack <= active_tol
+    violation = max(0.0, float(-slack.min(initial=0.0)))
+    if not active.any():
+        return max(violation, float(np.max(np.abs(v - v_desired))))
+    fit = lsq_linear(normals[active].T, v - v_desired, bounds=(0.0, np.inf), method="bvls", tol=1e-14)
+    return max(violation, float(np.max(np.abs(normals[active].T @ fit.x - (v - v_desired)))))
