@@ -202,48 +202,58 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
     misses a row by more than the tolerance: rounding on an ill-conditioned problem). A bound
     of -inf makes its row inactive.
 
-    Overflow-safe: each row is divided by its largest entry and then by its norm, and when
-    ``v`` or ``b`` are huge (> 1e100) the problem is solved scaled down (the projection is
-    positively homogeneous in ``(v, b)``).
+    Overflow-safe: each row is divided by its largest entry and then by its norm (its bound
+    too), and when ``v`` or those unit rows' positive bounds are huge (> 1e100) the problem is
+    solved scaled down (the projection is positively homogeneous in ``(v, b)``); a positive
+    bound beyond float range once its row is scaled gives ``NOT_MET`` (a negative one: the row
+    is met by any representable answer).
     """
     m, n = N.shape
     if m == 0:
         return v.copy(), SOLVED, 0.0
+    # The problem's size in the command's unit: the command and the positive bounds of the
+    # rows scaled to unit length (rows of 1e200 with bounds of 1e200 ask for O(1), not 1e200;
+    # a negative bound is met by the origin and cannot make the answer larger than ``v``).
+    G = np.empty((m, n))
+    h = np.empty(m)
+    bound = np.empty(m)  # the unit rows' bounds
+    zero = np.zeros(m, dtype=np.bool_)  # inactive rows (-inf) and zero rows
     size = 1.0
     for k in range(n):
         size = max(size, abs(v[k]))
     for i in range(m):
-        if np.isfinite(b[i]):
-            size = max(size, abs(b[i]))
-    scale = size if size > 1e100 else 1.0
-    vs = v / scale
-    G = np.empty((m, n))
-    h = np.empty(m)
-    bound = np.empty(m)  # the unit rows' bounds
-    any_violated = False
-    for i in range(m):
         largest = 0.0
         for k in range(n):
             largest = max(largest, abs(N[i, k]))
-        if b[i] == -np.inf:  # no bound: an inactive row
-            largest = 0.0
-        if largest == 0.0:
+        if b[i] == -np.inf or largest == 0.0:
+            zero[i] = True
             for k in range(n):
                 G[i, k] = 0.0
-            if b[i] / scale > FEASIBILITY_TOLERANCE:
-                return np.zeros(n), ZERO_ROW_INFEASIBLE, 0.0
-            h[i] = -np.inf
             continue
         norm2 = 0.0
         for k in range(n):
             G[i, k] = N[i, k] / largest
             norm2 += G[i, k] * G[i, k]
         norm = np.sqrt(norm2)
-        rate = 0.0
         for k in range(n):
             G[i, k] /= norm
+        bound[i] = b[i] / largest / norm
+        if bound[i] == np.inf:  # a bound beyond float range for its row: no answer to give
+            return v.copy(), NOT_MET, np.inf
+        size = max(size, bound[i])
+    scale = size if size > 1e100 else 1.0
+    vs = v / scale
+    any_violated = False
+    for i in range(m):
+        if zero[i]:
+            if b[i] / scale > FEASIBILITY_TOLERANCE:
+                return np.zeros(n), ZERO_ROW_INFEASIBLE, 0.0
+            h[i] = -np.inf
+            continue
+        bound[i] /= scale
+        rate = 0.0
+        for k in range(n):
             rate += G[i, k] * vs[k]
-        bound[i] = b[i] / scale / largest / norm
         h[i] = bound[i] - rate
         if h[i] > FEASIBILITY_TOLERANCE:
             any_violated = True
@@ -257,7 +267,7 @@ def slide_kernel(v, N, b):  # pragma: no cover - compiled
     if not ok:
         x, ok = _dual_active_set(G, h, FEASIBILITY_TOLERANCE * scale_h)
     if not ok:
-        return np.zeros(n), INFEASIBLE, advance
+        return np.zeros(n), INFEASIBLE, advance * scale
     result = (vs + x) * scale
     # The answer is checked before it is handed out: every row met to the tolerance.
     for i in range(m):

@@ -6,7 +6,6 @@ import logging
 
 import numpy as np
 import pytest
-import quadprog
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -14,25 +13,7 @@ from scipy.optimize import lsq_linear
 
 from cobotsafety import slide
 from cobotsafety.errors import InfeasibleConstraintsError
-
-
-def quadprog_projection(v_desired: np.ndarray, normals: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """Goldfarb-Idnani in Fortran: min 1/2 |v|^2 - v_d.v  s.t.  normals v >= bounds."""
-    n = v_desired.shape[0]
-    return quadprog.solve_qp(np.eye(n), v_desired, normals.T.copy(), bounds)[0]
-
-
-def paper_rule_2d(v_desired: np.ndarray, unit_normals: np.ndarray) -> np.ndarray:
-    """Paper 1, section III.A, written from the text: slide on each active limitation with
-    eq. (1), keep the result that satisfies every limitation, else zero."""
-    candidates = []
-    for n in unit_normals:
-        along = v_desired @ n
-        candidates.append(v_desired.copy() if along >= 0 else v_desired - along * n)
-    for candidate in candidates:
-        if np.all(unit_normals @ candidate >= -1e-12):
-            return candidate
-    return np.zeros(2)
+from oracles.projection import paper_rule_2d, quadprog_projection
 
 
 def random_problem(rng: np.random.Generator, feasible_at_zero: bool):

@@ -4,33 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import quadprog
 
 from cobotsafety import slide
 from cobotsafety.errors import InfeasibleConstraintsError
-from cobotsafety.projection import RELAXATION_COMMAND_WEIGHT, relax
-
-
-def quadprog_relaxation(v_desired, normals, bounds, soft, floor):
-    """The same two stages written as QPs with slack variables, solved by quadprog.
-
-    Stage 1: min w^2 |v|^2 + |s|^2 over (v, s) s.t. hard rows, soft rows + s, floors.
-    Stage 2: min |v - v_desired|^2 s.t. the soft bounds lowered by the stage-1 slacks.
-    """
-    n, k = normals.shape[1], int(soft.sum())
-    H = np.diag(np.concatenate([np.full(n, RELAXATION_COMMAND_WEIGHT ** 2), np.ones(k)]))
-    C = np.zeros((normals.shape[0], n + k))
-    C[:, :n] = normals
-    C[np.flatnonzero(soft), n + np.arange(k)] = 1.0
-    floored = np.flatnonzero(soft & np.isfinite(floor))
-    C = np.vstack([C, np.hstack([normals[floored], np.zeros((floored.size, k))])])
-    b = np.concatenate([bounds, floor[floored] - 1e-12])  # v = 0 on every floor: degenerate for quadprog
-    x = quadprog.solve_qp(H, np.zeros(n + k), C.T.copy(), b)[0]
-    violation = np.zeros_like(bounds)
-    violation[soft] = np.maximum(bounds[soft] - normals[soft] @ x[:n], 0.0)
-    relaxed = bounds - violation
-    v = quadprog.solve_qp(np.eye(n), v_desired, normals.T.copy(), relaxed - 1e-12)[0]
-    return v, violation
+from cobotsafety.projection import relax
+from oracles.projection import quadprog_relaxation
 
 
 def infeasible_problem(rng):

@@ -1,0 +1,30 @@
+"""The joint filter's QP written plainly with quadprog (``arm/joint_filter.py``'s docstring).
+
+The command is ``qdot = q0 + B z`` and the filter minimises ``||z||^2`` subject to the rows
+``N qdot >= b``, i.e. ``(N B) z >= b - N q0``. With soft rows (the lexicographic levels), the
+soft rows first give way by least squares (``projection.relax``'s two stages, in ``z``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import quadprog
+
+from .projection import quadprog_relaxation
+
+
+def filter_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``q0 + B z*`` with ``z* = argmin ||z||^2 s.t. N (q0 + B z) >= b`` (every row hard)."""
+    G = N @ B
+    h = b - N @ q0
+    z = quadprog.solve_qp(np.eye(B.shape[1]), np.zeros(B.shape[1]), G.T.copy(), h)[0]
+    return q0 + B @ z
+
+
+def lexicographic_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray, soft: np.ndarray):
+    """``(qdot, violation)``: the soft rows relaxed by least squares while the others stay hard
+    (stage 1), then the closest command to ``q0`` on the relaxed rows (stage 2)."""
+    G = N @ B
+    h = b - N @ q0
+    z, violation = quadprog_relaxation(np.zeros(B.shape[1]), G, h, soft, np.full(len(b), -np.inf), slack=0.0)
+    return q0 + B @ z, violation

@@ -1,0 +1,155 @@
+"""The braking bound (``arm/braking.py``) against a step-by-step braking simulation
+(``oracles.braking.braking_travel``): hypothesis property tests (derandomized: the same examples
+every run), and the bound at each robot's own joint limits."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, braking_distance, braking_speed, safe_speed, stop_distance,
+                                     viable_speed)
+from cobotsafety.arm.robots import ROBOTS
+from compiled_arm import robot
+from oracles.braking import braking_travel
+
+PERIODS_S = (1e-3, 1 / 275, 4e-3, 1e-2)
+decels = st.floats(0.5, 50.0)
+jerks = st.floats(1.0, 4.0).map(lambda e: 10.0 ** e)
+periods = st.sampled_from(PERIODS_S)
+shares = st.floats(-1.0, 1.0)  # an acceleration as a share of the deceleration limit
+SETTINGS = settings(max_examples=200, deadline=None, derandomize=True, database=None)
+
+
+@SETTINGS
+@given(speed=st.floats(-1.0, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_stop_distance_bounds_the_simulated_braking_and_is_not_loose(speed, share, decel, jerk, dt):
+    accel = share * decel
+    travel = braking_travel(speed, accel, decel, jerk, dt)
+    bound = stop_distance(speed, accel, decel, jerk, dt)
+    assert travel <= bound + 1e-12
+    # Not loose: beyond the simulation by at most a few steps' travel at the peak speed.
+    peak = max(speed, 0.0) + max(accel, 0.0) ** 2 / (2.0 * jerk)
+    assert bound - travel <= 2.5 * (peak * dt + decel * dt * dt) + 1e-12
+
+
+@SETTINGS
+@given(gap=st.floats(1e-4, 3.0), decel=decels, jerk=jerks, dt=periods)
+def test_braking_speed_stops_in_time_even_when_accelerating_toward_the_limitation(gap, decel, jerk, dt):
+    speed = braking_speed(gap, decel, jerk, dt)
+    assert 0.0 <= speed <= gap / dt
+    if speed > 0.0:  # the worst case: still accelerating toward it at +decel when braking starts
+        assert braking_travel(speed, decel, decel, jerk, dt) <= gap + 1e-12
+        if speed < gap / dt:  # the largest such speed: D(v) uses the whole gap
+            assert braking_distance(speed, decel, jerk, dt) == pytest.approx(gap, rel=1e-9, abs=1e-15)
+    else:  # zero only when even a standing start accelerating at +decel needs more room
+        assert braking_distance(0.0, decel, jerk, dt) >= gap
+
+
+def viable_start(gap, speed, share, decel, jerk, dt, cap):
+    accel = share * decel
+    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+    assume(not math.isnan(allowed))  # a state on or inside the bound
+    return accel, allowed
+
+
+@SETTINGS
+@given(gap=st.floats(1e-3, 2.0), speed=st.floats(-0.5, 2.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_a_step_at_the_viable_speed_leaves_a_state_that_brakes_before_the_limitation(gap, speed, share, decel, jerk, dt):
+    cap = 2.0
+    accel, allowed = viable_start(gap, speed, share, decel, jerk, dt, cap)
+    lo = speed + max(accel - jerk * dt, -decel) * dt  # the hardest braking the limits allow now
+    assert allowed >= lo - 1e-12  # the bound never asks for more than the limits
+    nxt = min(allowed, cap)
+    if math.isinf(allowed):
+        nxt = max(cap, lo)
+    after = gap - nxt * dt
+    accel_next = min(max((nxt - speed) / dt, -decel), decel)
+    assert braking_travel(nxt, accel_next, decel, jerk, dt) <= after + 1e-12
+
+
+@settings(SETTINGS, max_examples=100)
+@given(gap=st.floats(1e-3, 1.0), speed=st.floats(-0.5, 2.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_the_bound_enforced_every_step_against_a_user_pushing_in_never_crosses(gap, speed, share, decel, jerk, dt):
+    """Closed loop: each step the arm goes as fast toward the limitation as its acceleration
+    and jerk limits and the bound allow. The state stays viable, the bound never asks for more
+    than the limits, and the gap never closes."""
+    cap = 2.0
+    accel, _ = viable_start(gap, speed, share, decel, jerk, dt, cap)
+    for _ in range(int(1.0 / dt)):
+        allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+        assert not math.isnan(allowed)
+        lo = speed + max(accel - jerk * dt, -decel) * dt
+        hi = speed + min(accel + jerk * dt, decel) * dt
+        assert allowed >= lo - 1e-12
+        nxt = max(min(hi, allowed, cap), lo)
+        accel, speed = (nxt - speed) / dt, nxt
+        gap -= speed * dt
+        assert gap >= 0.0
+    assert braking_travel(speed, accel, decel, jerk, dt) <= gap + 1e-12
+
+
+@SETTINGS
+@given(gap=st.floats(1e-4, 1.0), speed=st.floats(-0.5, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_safe_speed_scales_the_limits_only_when_needed_and_by_the_least_factor(gap, speed, share, decel, jerk, dt):
+    cap = 2.0
+    accel = share * decel
+    allowed, factor = safe_speed(gap, speed, accel, decel, jerk, dt, cap)
+    viable = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+    if not math.isnan(viable):
+        assert factor == 1.0 and (allowed == viable or math.isinf(viable) and math.isinf(allowed))
+        return
+    assert factor > 1.0
+    if factor == MAX_BRAKE_FACTOR and math.isnan(viable_speed(gap, speed, accel, factor * decel, factor * jerk, dt, cap)):
+        assert allowed == braking_speed(gap, factor * decel, factor * jerk, dt)
+        return
+    at = viable_speed(gap, speed, accel, factor * decel, factor * jerk, dt, cap)
+    assert not math.isnan(at) and allowed == at  # it works at that factor ...
+    less = factor * (1.0 - 1e-7)  # ... and not at a smaller one (the bisection's resolution)
+    assert math.isnan(viable_speed(gap, speed, accel, less * decel, less * jerk, dt, cap))
+
+
+def test_safe_speed_at_or_past_the_limitation():
+    assert safe_speed(0.0, 0.3, 0.0, 5.0, 100.0, 1e-3, 2.0) == (0.0, 1.0)
+    assert safe_speed(-0.01, 0.3, 0.0, 5.0, 100.0, 1e-3, 2.0) == (0.0, 1.0)
+    assert math.isnan(viable_speed(0.0, 0.0, 0.0, 5.0, 100.0, 1e-3, 2.0))
+
+
+@pytest.mark.parametrize("name", list(ROBOTS))
+@pytest.mark.parametrize("dt", [1e-3, 1 / 275])
+def test_every_joint_at_its_velocity_limit_brakes_before_its_position_limit(name, dt):
+    """Issue 20's test: every joint of every robot starts at its velocity limit toward its
+    nearer position limit, from random positions and accelerations (within its limits) that
+    the bound admits, and is then pushed in as fast as its own acceleration and jerk limits
+    and the bound allow, step after step: it brakes within those limits and stops before the
+    position limit, and braking from its last state stops before it too."""
+    model = robot(name)
+    limits = model.limits
+    rng = np.random.default_rng(3000 + list(ROBOTS).index(name))
+    runs = 0
+    for iq, iv in model.limited:
+        vel, acc, jerk = (float(x[iv]) for x in (limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3))
+        span = float(model.upper[iq] - model.lower[iq])
+        for _ in range(3):
+            gap = 0.5 * span * rng.uniform(0.05, 1.0)  # to the nearer limit [rad]
+            speed, accel = vel, rng.uniform(-acc, 0.0)  # at the velocity limit, not accelerating further
+            if math.isnan(viable_speed(gap, speed, accel, acc, jerk, dt, vel)):
+                continue  # too close to brake in time: the bound never lets a joint get there
+            runs += 1
+            slowed = False
+            for _ in range(int(2.0 / dt)):
+                allowed = viable_speed(gap, speed, accel, acc, jerk, dt, vel)
+                lo = speed + max(accel - jerk * dt, -acc) * dt
+                hi = min(speed + min(accel + jerk * dt, acc) * dt, vel)
+                assert allowed >= lo - 1e-12, (model.joint_names[iv], gap, speed)  # within the limits
+                nxt = max(min(hi, allowed), lo)
+                slowed |= nxt < vel
+                accel, speed = (nxt - speed) / dt, nxt
+                gap -= speed * dt
+                assert gap >= 0.0, (model.joint_names[iv], speed)
+            assert slowed and braking_travel(speed, accel, acc, jerk, dt) <= gap + 1e-12
+    assert runs >= len(model.limited)

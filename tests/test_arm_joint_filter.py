@@ -1,0 +1,191 @@
+"""The joint-space filter (``arm/joint_filter.py``) against its QP written plainly with quadprog
+(``oracles/joint_filter.py``), paper 1's 2D rule, and the speed cap as a norm."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from cobotsafety.arm.joint_filter import (LEVEL_EXACT, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LIMITATION, MOTION, PLAN,
+                                          SPEED_CUTS, VELOCITY, filter_rows)
+from oracles.joint_filter import filter_qp, lexicographic_qp
+from oracles.projection import kkt_residual, paper_rule_2d
+
+NO_CAP = np.inf
+
+
+def task(rng: np.random.Generator, nv: int, eps: float = 0.01):
+    """A random arm's task: ``J`` (3, nv), ``B = [J^+ | Z / eps]`` and ``q0 = J^+ v + c``."""
+    J = rng.normal(size=(3, nv))
+    M = np.linalg.pinv(J)
+    B = np.hstack([M, scipy.linalg.null_space(J) / eps])
+    q0 = M @ rng.normal(size=3) * 0.3 + (np.eye(nv) - M @ J) @ rng.normal(size=nv) * 0.1
+    return J, B, q0
+
+
+def rows(groups_and_rows, nv):
+    """``(N, b, group, count)`` with room for the speed cuts after ``count``."""
+    N = np.vstack([r for _, r, _ in groups_and_rows] + [np.zeros((SPEED_CUTS, nv))])
+    b = np.concatenate([[x for _, _, x in groups_and_rows], np.zeros(SPEED_CUTS)])
+    group = np.array([g for g, _, _ in groups_and_rows] + [0] * SPEED_CUTS, dtype=np.int64)
+    return np.ascontiguousarray(N), b, group, len(groups_and_rows)
+
+
+def hard_problem(rng, nv, feasible_point, q_prev):
+    """Limitation rows through (or short of) a feasible point, the joints' speed limits and a
+    motion box around the previous command that holds the feasible point."""
+    vel = np.full(nv, 2.0)
+    found = []
+    for _ in range(int(rng.integers(1, 2 * nv))):
+        a = rng.normal(size=nv) * 10.0 ** rng.uniform(-1, 1)
+        found.append((LIMITATION, a, a @ feasible_point - abs(rng.normal()) * rng.integers(0, 2)))
+    for j in range(nv):
+        for sign in (1.0, -1.0):
+            e = np.zeros(nv)
+            e[j] = sign
+            found.append((VELOCITY, e, -vel[j]))
+            width = abs(feasible_point[j] - q_prev[j]) + rng.uniform(0.0, 0.2)
+            found.append((MOTION, e, sign * q_prev[j] - width))
+    return found
+
+
+def test_hard_rows_equal_the_quadprog_qp_on_random_problems():
+    rng = np.random.default_rng(41)
+    worst, binding, quadprog_failures = 0.0, 0, 0
+    for _ in range(1500):
+        nv = int(rng.integers(3, 8))
+        J, B, q0 = task(rng, nv)
+        feasible = rng.uniform(-1.5, 1.5, nv)
+        N, b, group, count = rows(hard_problem(rng, nv, feasible, feasible + rng.normal(size=nv) * 0.1), nv)
+        qdot, violation, level, used = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP)
+        assert level == LEVEL_EXACT and used == count and not violation.any()
+        binding += np.any(N[:count] @ q0 < b[:count])
+        try:
+            expected = filter_qp(q0, B, N[:count], b[:count])
+        except ValueError:  # quadprog gives up on a degenerate vertex: the optimality conditions
+            G, h = N[:count] @ B, b[:count] - N[:count] @ q0
+            z = np.linalg.lstsq(B, qdot - q0, rcond=None)[0]
+            scale = np.linalg.norm(G, axis=1)
+            assert kkt_residual(z, np.zeros(B.shape[1]), G / scale[:, None], h / scale) <= 1e-9
+            quadprog_failures += 1
+            continue
+        worst = max(worst, float(np.max(np.abs(qdot - expected))))
+    assert worst <= 1e-9
+    assert binding > 1000 and quadprog_failures < 50  # most problems had to move the command
+
+
+def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
+    """A limitation that needs more than the motion box allows: the motion rows are relaxed by
+    least squares (safety over smoothness), the rest is the closest command; against the two
+    stages written as quadprog QPs. With plan rows (soft at the first level) the same."""
+    rng = np.random.default_rng(42)
+    tested = {LEVEL_SMOOTHNESS: 0, LEVEL_EXACT: 0}
+    for k in range(600):
+        nv = int(rng.integers(3, 8))
+        J, B, q0 = task(rng, nv)
+        q_prev = rng.uniform(-0.5, 0.5, nv)
+        found = hard_problem(rng, nv, q_prev, q_prev)  # the box around q_prev holds q_prev
+        a = rng.normal(size=nv)
+        if k % 2 == 0:  # a retreat beyond the motion box: only the motion rows can give way
+            found.append((LIMITATION, a, a @ q_prev + rng.uniform(0.5, 2.0)))
+            soft_groups, level_expected = (PLAN, MOTION), LEVEL_SMOOTHNESS
+        else:  # a plan row beyond the motion box: the plan gives way, the motion box holds
+            found.append((PLAN, a, a @ q_prev + rng.uniform(0.5, 2.0)))
+            soft_groups, level_expected = (PLAN,), LEVEL_EXACT
+        N, b, group, count = rows(found, nv)
+        soft = np.isin(group[:count], soft_groups)
+        try:
+            expected, violation_qp = lexicographic_qp(q0, B, N[:count], b[:count], soft)
+        except ValueError:  # the retreat is beyond the speed limits too: not this test's case
+            continue
+        qdot, violation, level, _ = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP)
+        assert level == level_expected
+        np.testing.assert_allclose(violation[:count], violation_qp, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-9)
+        hard = ~soft
+        assert np.all(N[:count][hard] @ qdot >= b[:count][hard] - 1e-9)  # the limitation and speed rows hold
+        assert violation[:count][soft].max() > 0.0
+        tested[level] += 1
+    assert min(tested.values()) > 200
+
+
+def test_nothing_binds_gives_the_command_exactly():
+    rng = np.random.default_rng(43)
+    for _ in range(500):
+        nv = int(rng.integers(3, 8))
+        J, B, q0 = task(rng, nv)
+        found = hard_problem(rng, nv, q0, q0)
+        found = [(g, a, min(x, a @ q0)) for g, a, x in found]  # every row holds at q0
+        N, b, group, count = rows(found, nv)
+        qdot, violation, level, used = filter_rows(q0, B, N, b, group, count, J, 10.0)
+        np.testing.assert_array_equal(qdot, q0)
+        assert level == LEVEL_EXACT and used == count and not violation.any()
+
+
+def test_in_2d_with_hard_limits_it_is_paper_1s_rule():
+    """A 2-DOF arm, ``B = M`` (no redundancy): the command ``u`` the filter keeps is the one
+    paper 1 (section III.A) slides to, on the limitations mapped into the command's space."""
+    rng = np.random.default_rng(44)
+    for _ in range(3000):
+        M = rng.normal(size=(2, 2))
+        if abs(np.linalg.det(M)) < 0.1:
+            continue
+        v = rng.normal(size=2)
+        limitations = rng.normal(size=(int(rng.integers(1, 3)), 2))  # at most two, as the paper
+        N, b, group, count = rows([(LIMITATION, a, 0.0) for a in limitations], 2)
+        qdot, _, level, _ = filter_rows(M @ v, M, N, b, group, count, np.zeros((3, 2)), NO_CAP)
+        unit = limitations @ M
+        unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+        if len(unit) == 2 and unit[0] @ unit[1] < -1.0 + 1e-6:
+            continue  # a sliver of a wedge: its apex is ill-conditioned (errors ~ eps / angle^2)
+        np.testing.assert_allclose(np.linalg.solve(M, qdot), paper_rule_2d(v, unit), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.3, -2.0, 0.7)])
+def test_the_speed_cap_is_a_norm(direction):
+    """A straight and a diagonal command are capped to the same speed (a cap per axis lets a
+    diagonal run sqrt(3) faster); on a redundant arm too (the cap's tangent planes)."""
+    cap = 0.25
+    u = np.array(direction) / np.linalg.norm(direction)
+    N, b, group, count = rows([], 3)
+    qdot, _, _, used = filter_rows(2.0 * cap * u, np.eye(3), N, b, group, count, np.eye(3), cap)
+    assert np.linalg.norm(qdot) == pytest.approx(cap, rel=1e-9)
+    np.testing.assert_allclose(qdot / np.linalg.norm(qdot), u, atol=1e-9)  # straight down the command
+    assert used == 1
+    rng = np.random.default_rng(45)
+    for _ in range(200):
+        J, B, _ = task(rng, 7)
+        q0 = np.linalg.pinv(J) @ (3.0 * cap * u)
+        N, b, group, count = rows([], 7)
+        qdot, _, _, _ = filter_rows(q0, B, N, b, group, count, J, cap)
+        assert np.linalg.norm(J @ qdot) == pytest.approx(cap, rel=1e-6)
+
+
+def test_contradicting_retreats_are_relaxed_down_to_approaching_nothing():
+    """Two retreats no command meets at once within the speed limits: each gives way by least
+    squares, but never so far that the arm approaches the limitation (``a . qdot >= 0``)."""
+    rng = np.random.default_rng(46)
+    done = 0
+    for _ in range(300):
+        nv = int(rng.integers(3, 8))
+        J, B, q0 = task(rng, nv)
+        a = rng.normal(size=nv)
+        found = [(LIMITATION, a, rng.uniform(0.5, 1.0) * 2 * np.abs(a).sum()),
+                 (LIMITATION, -a + 0.1 * rng.normal(size=nv), rng.uniform(0.5, 1.0) * 2 * np.abs(a).sum())]
+        for j in range(nv):
+            for sign in (1.0, -1.0):
+                e = np.zeros(nv)
+                e[j] = sign
+                found.append((VELOCITY, e, -2.0))
+        N, b, group, count = rows(found, nv)
+        qdot, violation, level, _ = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP)
+        if level != LEVEL_RELAXED:
+            continue
+        # Approach nothing, within the speed limits: to relax_kernel's acceptance (1e-6 of the
+        # bounds' size; the relaxed levels solve two stacked least-distance problems).
+        assert np.all(N[:2] @ qdot >= -1e-6)
+        assert np.all(np.abs(qdot) <= 2.0 + 2e-6)
+        assert np.all(violation[:2] > 0.0)
+        done += 1
+    assert done > 100

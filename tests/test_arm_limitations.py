@@ -1,0 +1,229 @@
+"""Every limitation kind's compiled rows against the oracle (``oracles/limitations.py``):
+equal to 1e-12 on 100 % of random states of every robot, zones of every kind (penetrated boxes
+included) and a moving human; every registered kind dispatches; an unknown kind is refused;
+the rows' gradients and the human's rate against finite differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cobotsafety.arm.controller import ArmController
+from cobotsafety.arm.limitations import (BoxZone, CapsuleZone, HalfSpaceZone, HumanLimitation, JointPositionLimits,
+                                         ReachLimits, SphereZone, TablePlane)
+from cobotsafety.arm.limitations import human as human_kind
+from cobotsafety.arm.limitations.registry import KINDS, UnsupportedLimitationError, pack_scene
+from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
+from cobotsafety.arm.robots import ROBOTS
+from cobotsafety.errors import CobotSafetyError
+from compiled_arm import compiled_distances, compiled_kinematics, compiled_rows, human_tuple, robot
+from oracles import limitations as oracle
+from oracles.geometry import capsule_pair, segment_box
+from oracles.kinematics import Kinematics, random_configuration
+
+ROBOT_NAMES = list(ROBOTS)
+STATES = 40
+
+
+def _point(x) -> tuple[float, float, float]:
+    return tuple(float(v) for v in x)
+
+
+def random_scene(model, kin: Kinematics, rng: np.random.Generator):
+    """One limitation of every kind placed on the arm (so that rows are active), two boxes the
+    arm penetrates (one through a capsule, one around a whole capsule) and a moving human of
+    one to five capsules. Returns ``(limitations, human (oracle.Human), ahead_s, activation_m)``."""
+    n_caps = len(model.capsules)
+
+    def on_arm(spread):
+        c = int(rng.integers(0, n_caps))
+        return kin.p0[c] + rng.uniform() * (kin.p1[c] - kin.p0[c]) + rng.normal(size=3) * spread
+
+    def skip():
+        return int(rng.integers(0, n_caps + 1))
+
+    c = int(rng.integers(1, n_caps))
+    middle, half_axis = 0.5 * (kin.p0[c] + kin.p1[c]), 0.5 * np.abs(kin.p1[c] - kin.p0[c])
+    r = float(np.linalg.norm(kin.p_ee - kin.p0[0]))
+    limitations = [
+        JointPositionLimits(),
+        ReachLimits(_point(kin.p0[0] + rng.normal(size=3) * 0.05), r * rng.uniform(0.5, 1.1), r * rng.uniform(0.9, 1.5)),
+        TablePlane(float(rng.uniform(-0.1, 0.6)), skip_capsules=skip()),
+        SphereZone("sphere", _point(on_arm(0.15)), float(rng.uniform(0.02, 0.2)), skip_capsules=skip()),
+        CapsuleZone("capsule", _point(on_arm(0.15)), _point(on_arm(0.15)), float(rng.uniform(0.01, 0.15)),
+                    skip_capsules=skip()),
+        HalfSpaceZone("wall", _point(on_arm(0.1)), _point(rng.normal(size=3)), skip_capsules=skip()),
+        BoxZone("box", _point(on_arm(0.15)), _point(rng.uniform(0.02, 0.2, 3)), skip_capsules=skip()),
+        BoxZone("box through", _point(on_arm(0.01)), _point(rng.uniform(0.01, 0.06, 3)), skip_capsules=skip()),
+        BoxZone("box around", _point(middle), _point(half_axis + rng.uniform(0.0, 0.05, 3)), skip_capsules=0),
+    ]
+    h = int(rng.integers(1, 6))
+    p0 = np.array([on_arm(0.25) for _ in range(h)])
+    p1 = p0 + rng.normal(size=(h, 3)) * 0.2 * rng.integers(0, 2, size=(h, 1))  # some spheres
+    human = oracle.Human(p0, p1, rng.uniform(0.03, 0.2, h), rng.normal(size=(h, 3)) * 0.5, rng.normal(size=(h, 3)) * 0.5)
+    limitations.insert(int(rng.integers(0, len(limitations) + 1)),
+                       HumanLimitation(critical_m=float(rng.uniform(0.0, 0.3)), activation_m=float(rng.uniform(0.1, 1.5)),
+                                       skip_capsules=skip()))
+    return limitations, human, float(rng.uniform(0.0, 0.05)), float(rng.uniform(0.02, 0.6))
+
+
+def test_the_oracles_own_geometry_against_brute_force_sampling():
+    """The oracle's segment-box and capsule distances against a dense sampling of the segment
+    (a third, independent computation): never above the sampled minimum, and within the
+    sampling's resolution of it; inside a box too."""
+    rng = np.random.default_rng(7)
+    s = np.linspace(0.0, 1.0, 4001)[:, None]
+    for _ in range(200):
+        c, h = rng.normal(size=3) * 0.2, rng.uniform(0.02, 0.3, 3)
+        a, b = c + rng.normal(size=3) * 0.3, c + rng.normal(size=3) * 0.3
+        step = np.linalg.norm(b - a) / 4000
+        q = np.abs(a + s * (b - a) - c) - h  # the box's signed distance at every sample
+        sampled = (np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)).min()
+        d, _, _ = segment_box(a, b, c, h)
+        assert sampled - step <= d <= sampled + 1e-12
+        b0, b1 = rng.normal(size=3), rng.normal(size=3)
+        dc, _, _ = capsule_pair(a, b, 0.1, b0, b1, 0.05)
+        grid = a + s * (b - a)
+        t = np.clip((grid - b0) @ (b1 - b0) / ((b1 - b0) @ (b1 - b0)), 0, 1)
+        sampled = np.linalg.norm(grid - (b0 + t[:, None] * (b1 - b0)), axis=1).min() - 0.15
+        assert sampled - step <= dc <= sampled + 1e-12
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_every_kinds_rows_equal_the_oracle_on_every_random_state(name):
+    model = robot(name)
+    rng = np.random.default_rng(1000 + ROBOT_NAMES.index(name))
+    seen_kinds, penetrated = set(), 0
+    for _ in range(STATES):
+        q = random_configuration(model.model, rng)
+        kin_o = Kinematics(model, q)
+        limitations, human, ahead_s, activation = random_scene(model, kin_o, rng)
+        pack = pack_scene(limitations, model)
+        kin = compiled_kinematics(model, q)[0]
+        hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, ahead_s)
+        dist, A, rate, angular, tag, before = compiled_rows(pack, model, kin, hum, activation)
+        expected, measured = oracle.rows(limitations, kin_o, human.ahead(ahead_s), activation)
+        assert [tuple(t) for t in tag] == [row.tag for row in expected]
+        np.testing.assert_allclose(dist, [row.d for row in expected], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(A, np.array([row.a for row in expected]).reshape(-1, model.nv), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rate, [row.rate for row in expected], rtol=0, atol=1e-12)
+        assert angular.tolist() == [row.angular for row in expected]
+        np.testing.assert_allclose(before, measured, rtol=0, atol=1e-12)
+        for lim, got in zip(limitations, compiled_distances(pack, model, kin, hum), strict=True):
+            np.testing.assert_allclose(got, oracle.distances(lim, kin_o, human.ahead(ahead_s)), rtol=0, atol=1e-12)
+        seen_kinds |= {type(limitations[t[0]]) for t in tag}
+        box_rows = [i for i, t in enumerate(tag) if isinstance(limitations[t[0]], BoxZone)]
+        penetrated += sum(dist[i] < -kin_o.radius[tag[i][1]] for i in box_rows)  # the axis inside the box
+    assert seen_kinds == set(KINDS)  # every kind had active rows
+    assert penetrated >= STATES // 2  # the box's inside case was exercised
+
+
+def sample_limitations():
+    """One instance of every registered kind (a kind added to the registry without one here
+    fails ``test_every_registered_kind_dispatches``)."""
+    return {JointPositionLimits: JointPositionLimits(), ReachLimits: ReachLimits((0.0, 0.0, 0.3), 0.2, 0.8),
+            TablePlane: TablePlane(0.0), SphereZone: SphereZone("s", (0.4, 0.0, 0.4), 0.1),
+            CapsuleZone: CapsuleZone("c", (0.3, -0.2, 0.3), (0.3, 0.2, 0.3), 0.05),
+            HalfSpaceZone: HalfSpaceZone("w", (0.6, 0.0, 0.0), (1.0, 0.0, 0.0)),
+            BoxZone: BoxZone("b", (0.4, 0.0, 0.3), (0.1, 0.1, 0.1)), HumanLimitation: HumanLimitation()}
+
+
+def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
+    model = robot("panda")
+    samples = sample_limitations()
+    assert set(samples) == set(KINDS)
+    kin = compiled_kinematics(model, model.home_q)[0]
+    hum = human_tuple([[0.5, 0.0, 0.5]], [[0.5, 0.0, 1.0]], [0.1], np.zeros((1, 3)), np.zeros((1, 3)))
+    n_caps, L = len(model.capsules), len(model.limited)
+    for kind_type, module in KINDS.items():
+        real, skip = module.pack(samples[kind_type], model)
+        size = kind_count(module.KIND, real, skip, n_caps, L, 1)
+        assert size > 0, kind_type
+        out = (np.empty(size), np.empty((size, model.nv)), np.empty(size), np.empty(size, dtype=np.bool_),
+               np.empty((size, 3), dtype=np.int64))
+        before = np.full(size, np.nan)
+        m = kind_rows(module.KIND, real, skip, 0, kin, hum, np.inf, out, 0, before)
+        assert m == size, kind_type  # every distance is a row at an infinite activation distance
+        assert np.all(np.isfinite(before))
+        values = np.full(size, np.nan)
+        kind_distances(module.KIND, real, skip, kin, hum, values)
+        assert np.all(np.isfinite(values))
+    unknown = max(m.KIND for m in KINDS.values()) + 1
+    assert kind_count(unknown, np.zeros(12), 0, n_caps, L, 1) == -1
+    out = (np.empty(1), np.empty((1, model.nv)), np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 3), dtype=np.int64))
+    assert kind_rows(unknown, np.zeros(12), 0, 0, kin, hum, np.inf, out, 0, np.empty(1)) == -1
+
+
+class Fence:
+    """A limitation nobody registered."""
+
+    name = "fence"
+
+
+class RoundBox(BoxZone):
+    """A subclass of a registered kind is another kind: refused too, never run as a box."""
+
+
+def test_an_unknown_limitation_is_refused_at_packing_and_at_the_step():
+    model = robot("panda")
+    for stranger in (Fence(), RoundBox("round", (0.4, 0.0, 0.3), (0.1, 0.1, 0.1))):
+        with pytest.raises(UnsupportedLimitationError, match=f"{type(stranger).__name__}.*known kinds: BoxZone"):
+            pack_scene([JointPositionLimits(), stranger], model)
+    arm = ArmController("panda", zones=[Fence()], reach=False)
+    with pytest.raises(UnsupportedLimitationError, match="Fence"):
+        arm.step(np.array([0.1, 0.0, 0.0]), 0.002)
+    arm = ArmController("panda", zones=[], reach=False)
+    arm.step(np.zeros(3), 0.002)
+    arm._scene_i[0, 0] = 99  # a code the compiled dispatch does not know
+    q = arm.state.q.copy()
+    with pytest.raises(CobotSafetyError, match="refused the scene"):
+        arm.step(np.array([0.1, 0.0, 0.0]), 0.002)
+    np.testing.assert_array_equal(arm.state.q, q)
+
+
+def test_packing_refuses_bad_scenes_with_a_clear_error():
+    model = robot("panda")
+    with pytest.raises(ValueError, match="skips 99 capsules"):
+        pack_scene([TablePlane(0.0, skip_capsules=99)], model)
+    with pytest.raises(ValueError, match="at most one human"):
+        pack_scene([HumanLimitation(), HumanLimitation()], model)
+    with pytest.raises(ValueError, match="non-finite"):
+        pack_scene([SphereZone("s", (np.nan, 0.0, 0.0), 0.1)], model)
+
+
+@pytest.mark.parametrize("name", ["panda", "kinova", "iiwa"])
+def test_row_gradients_and_the_human_rate_match_finite_differences(name):
+    """``d(q + eps qdot) - d(q - eps qdot)`` over ``2 eps`` equals ``a . qdot`` for every row
+    where the distance is smooth (the closest feature does not switch within +-eps); moving the
+    human along its velocity changes ``d`` at ``rate``."""
+    model = robot(name)
+    rng = np.random.default_rng(2000 + ROBOT_NAMES.index(name))
+    eps = 1e-6
+    checked = {}
+    for _ in range(15):
+        q = random_configuration(model.model, rng)
+        kin_o = Kinematics(model, q)
+        limitations, human, _, _ = random_scene(model, kin_o, rng)
+        pack = pack_scene(limitations, model)
+        hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1)
+        dist, A, rate, _, tag, _ = compiled_rows(pack, model, compiled_kinematics(model, q)[0], hum, np.inf)
+        qdot = rng.normal(size=model.nv)
+
+        def by_tag(q_moved, hum_moved):
+            d, *_, t, _ = compiled_rows(pack, model, compiled_kinematics(model, q_moved)[0], hum_moved, np.inf)
+            return {tuple(k): v for k, v in zip(t, d)}
+
+        plus = by_tag(pin.integrate(model.model, q, eps * qdot), hum)
+        minus = by_tag(pin.integrate(model.model, q, -eps * qdot), hum)
+        later = by_tag(q, human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, eps))
+        earlier = by_tag(q, human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, -eps))
+        for i, t in enumerate(map(tuple, tag)):
+            kind = type(limitations[t[0]]).__name__
+            if t in plus and t in minus and abs(plus[t] + minus[t] - 2 * dist[i]) < 1e-9:
+                assert A[i] @ qdot == pytest.approx((plus[t] - minus[t]) / (2 * eps), rel=1e-5, abs=1e-6), (kind, t)
+                checked[kind] = checked.get(kind, 0) + 1
+            if pack.kinds[t[0]] == human_kind.KIND and abs(later[t] + earlier[t] - 2 * dist[i]) < 1e-9:
+                assert rate[i] == pytest.approx((later[t] - earlier[t]) / (2 * eps), rel=1e-5, abs=1e-6), t
+                checked["rate"] = checked.get("rate", 0) + 1
+    assert set(checked) == {m.__name__ for m in KINDS} | {"rate"}, checked
