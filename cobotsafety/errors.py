@@ -18,3 +18,7 @@ class UnknownRobotError(CobotSafetyError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+class PseudonymError(CobotSafetyError, ValueError):
+    """A participant pseudonym that could not name a file safely, or one given twice."""

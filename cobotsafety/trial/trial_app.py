@@ -8,7 +8,13 @@ the condition and shows no operator box or login.
 Operator view (``operator_url``, printed with the token at start): enter the token; a wrong
 token is said so and cleared, the right one replaces the login with the participant
 selector-free plan (with conditions), Start / Abort / Repeat and live status. Finished trials
-go to the ``LogStore`` at once (durable, resumable).
+go to the ``LogStore`` at once (durable, resumable); a trial that cannot be written is kept,
+retried every ``RETRY_WRITE_S`` and shown to the operator as an error until it is.
+
+Access (issue 22): both servers refuse viser's share tunnel and check every value a browser
+sends (``cobotsafety.app.access.ServerGuard``); the operator token has 128 bits, is compared in
+constant time, and each connection waits longer after each wrong one (``TokenGate``).
+Pseudonyms are checked before anything starts (``cobotsafety.trial.pseudonyms``).
 
 The trial, and with it the colour task, starts at the participant's first motion after the
 operator's Start: no colour word is shown before it. The demo's protection zones (F, G) are not
@@ -18,7 +24,6 @@ part of the trial scene: the course's triangles are the only obstacles.
 from __future__ import annotations
 
 import logging
-import secrets
 import threading
 import time
 from pathlib import Path
@@ -26,12 +31,15 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from cobotsafety.app.access import ServerGuard, TokenGate, Verdict
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
+from cobotsafety.errors import CobotSafetyError
 from cobotsafety.app.scenes import make_scene
 from cobotsafety.trial.colour_task import COLOURS
 from cobotsafety.trial.course import Course, arm_course, planar_course
 from cobotsafety.trial.log_store import LogStore
 from cobotsafety.trial.plan import PlannedTrial, session_plan
+from cobotsafety.trial.pseudonyms import check_pseudonyms
 from cobotsafety.trial.session import TrialRun
 
 logger = logging.getLogger(__name__)
@@ -40,20 +48,30 @@ TOUCH_FLASH_S = 0.8
 """How long a touched triangle stays highlighted and the touch message shows [s]."""
 OBSTACLE_RGB = (200, 40, 40)
 TOUCHED_RGB = (255, 150, 0)
+DEFAULT_PORT = 8090
+"""The participant view's port (the operator's is the next one); the demo's is 8080."""
+RETRY_WRITE_S = 5.0
+"""How often a finished trial that could not be written is tried again [s]."""
 
 
 class TrialServer:
     def __init__(self, out: Path, participants: list[str], seed: int = 0, host: str = "127.0.0.1",
-                 port: int = 8080, course: Course | None = None, robot: str = "planar",
+                 port: int = DEFAULT_PORT, course: Course | None = None, robot: str = "planar",
                  operator_port: int | None = None):
+        check_pseudonyms(participants)
         self.store = LogStore(out)
         self.seed = seed
         self.plan = session_plan(participants, seed=seed)
         self.course = course or (planar_course() if robot == "planar" else arm_course())
-        self.token = secrets.token_hex(4)
+        self.gate = TokenGate(what="operator token")
+        self.token = self.gate.token
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.operator_server = viser.ViserServer(host=host, port=operator_port or self.server.get_port() + 1,
                                                  verbose=False)
+        self.guard = ServerGuard(self.server)
+        self.operator_guard = ServerGuard(self.operator_server, may_change=self.gate.is_authorised)
+        self._unwritten: list[tuple[PlannedTrial, TrialRun]] = []
+        self._retry_write_s = 0.0
         self.scene = make_scene(self.server, robot)
         self.teleop = self.scene.robot
         self._remove_demo_zones()
@@ -87,6 +105,10 @@ class TrialServer:
         @self.operator_server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
             self._offer_operator_login(client)
+
+        @self.operator_server.on_client_disconnect
+        def _(client: viser.ClientHandle) -> None:
+            self.gate.forget(client.client_id)
 
     # ---- views -----------------------------------------------------------------------------
     def _remove_demo_zones(self) -> None:
@@ -133,22 +155,22 @@ class TrialServer:
             self.answer_buttons.append(button)
 
     def _offer_operator_login(self, client: viser.ClientHandle) -> None:
+        self.operator_guard.protect_client(client)  # before its controls exist
         with client.gui.add_folder("Operator login") as folder:
             token = client.gui.add_text("Token", initial_value="", hint="the token printed when the trial started")
             feedback = client.gui.add_markdown("Enter the operator token.")
 
         @token.on_update
         def _(_event) -> None:
-            entered = token.value.strip()
-            if not entered:
-                return
-            if entered == self.token:
+            verdict = self.gate.check(client.client_id, token.value)
+            if verdict is Verdict.ACCEPTED:
                 folder.remove()  # the token leaves the page once accepted
                 self._make_operator_panel(client)
-            elif len(entered) >= len(self.token):
+            elif verdict in (Verdict.WRONG, Verdict.WAIT):
                 token.value = ""
-                feedback.content = "**Wrong token.** Try again."
-                logger.warning("operator login refused (client %s)", client.client_id)
+                wait_s = self.gate.wait_s(client.client_id)
+                feedback.content = (f"**Wrong token.** Try again in {wait_s:.0f} s." if verdict is Verdict.WRONG
+                                    else f"**Too soon.** Wait {wait_s:.0f} s, then try again.")
 
     def _make_operator_panel(self, client: viser.ClientHandle) -> None:
         gui = client.gui
@@ -266,9 +288,19 @@ class TrialServer:
         with self._lock:
             finished, self._finished = self._finished, []
             current = self.current
+        if self._unwritten and time.monotonic() >= self._retry_write_s:
+            finished, self._unwritten = self._unwritten + finished, []
         for trial, run in finished:
             record = run.record(trial.participant, trial.condition, trial.order, run.seed)
-            self.store.append(record, np.array(run.trajectory).reshape(-1, 4))
+            try:
+                self.store.append(record, np.array(run.trajectory).reshape(-1, 4))
+            except (OSError, CobotSafetyError, ValueError) as error:  # kept in memory, retried, shown
+                self._unwritten.append((trial, run))
+                self._retry_write_s = time.monotonic() + RETRY_WRITE_S
+                self.status = (f"NOT LOGGED: {self._describe(trial)} could not be written to {self.store.directory} "
+                               f"({error}); kept in memory and retried every {RETRY_WRITE_S:.0f} s")
+                logger.error("%s", self.status)
+                continue
             self.status = f"Finished: {self._describe(trial)} (logged). Start the next trial."
             self.progress.content = "**Trial complete. Thank you! Waiting for the operator.**"
             self.word.content = ""
