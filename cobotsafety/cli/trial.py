@@ -4,6 +4,10 @@
 the operator token; ``cobotsafety trial --simulate N --out DIR`` runs N simulated participants;
 ``cobotsafety trial --simulate N --repeat K [--json]`` estimates the power of each comparison
 over K simulated studies of N participants (nothing is written).
+
+The browser trial listens on port 8090 (participant) and 8091 (operator) by default, beside
+the demo's 8080. Pseudonyms are letters, digits, ``_`` and ``-``; nonsense (a negative count, a
+port out of range, an option that does not apply) is refused before anything starts.
 """
 
 from __future__ import annotations
@@ -11,39 +15,71 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from cobotsafety.cli.arguments import non_negative_int, port, pseudonyms
+
+DEFAULT_PORT = 8090
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--simulate", type=int, default=0, metavar="N",
+    parser.add_argument("--simulate", type=non_negative_int, default=0, metavar="N",
                         help="run complete sessions with N simulated participants (headless)")
-    parser.add_argument("--participants", default="P01,P02,P03,P04", help="pseudonyms, comma-separated")
-    parser.add_argument("--host", default="127.0.0.1")
-    parser.add_argument("--port", type=int, default=8080)
+    parser.add_argument("--participants", type=pseudonyms, default="P01,P02,P03,P04",
+                        help="pseudonyms, comma-separated: letters, digits, '_' and '-' (default P01,P02,P03,P04)")
+    parser.add_argument("--host", default="127.0.0.1",
+                        help="interface both views bind (default 127.0.0.1, this machine only; 0.0.0.0 listens on "
+                             "every interface: anyone who reaches it can drive the participant view)")
+    parser.add_argument("--port", type=port, default=DEFAULT_PORT,
+                        help=f"participant view's port, 1-65534; the operator view is on the next one "
+                             f"(default {DEFAULT_PORT} and {DEFAULT_PORT + 1})")
     parser.add_argument("--out", type=Path, default=Path("out/trials"), metavar="DIR", help="log folder (resumed if it exists)")
     parser.add_argument("--seed", type=int, default=0, help="plan and participant seed (recorded in the log)")
     parser.add_argument("--scene", choices=["planar", "arm"], default="planar")
     parser.add_argument("--robot", default="panda", help="3D arm for --scene arm (browser trial)")
-    parser.add_argument("--repeat", type=int, default=0, metavar="K",
+    parser.add_argument("--repeat", type=non_negative_int, default=0, metavar="K",
                         help="with --simulate N: K simulated studies, print how often each comparison is significant")
     parser.add_argument("--json", action="store_true", help="with --repeat: print the power table as a JSON list")
     parser.add_argument("--paper-effect", action="store_true",
                         help="with --simulate N --repeat K: draw the studies from paper 1's means and SDs instead")
 
 
+def refusal(args: argparse.Namespace) -> str:
+    """Why this combination of options makes no sense ("" when it does)."""
+    if args.port > 65534:
+        return f"--port {args.port} leaves no port for the operator view (use 1-65534)"
+    if args.repeat and not args.simulate:
+        return "--repeat K needs --simulate N (N simulated participants per study)"
+    if (args.json or args.paper_effect) and not args.repeat:
+        return "--json and --paper-effect go with --simulate N --repeat K"
+    return ""
+
+
 def run(args: argparse.Namespace) -> int:
+    from cobotsafety.errors import CobotSafetyError
+
+    problem = refusal(args)
+    if problem:
+        raise CobotSafetyError(problem)
     if not args.simulate:
         import time
 
+        from cobotsafety.app.access import is_loopback, reachable_host
         from cobotsafety.trial.trial_app import TrialServer
 
-        participants = [p.strip() for p in args.participants.split(",") if p.strip()]
         robot = "planar" if args.scene == "planar" else args.robot
-        server = TrialServer(args.out, participants, args.seed, args.host, args.port, robot=robot).start_server()
-        print(f"cobotsafety trial: participant view {server.url}  operator view {server.operator_url}  "
+        server = TrialServer(args.out, args.participants, args.seed, args.host, args.port, robot=robot).start_server()
+        host = reachable_host(args.host)
+        if not is_loopback(args.host):
+            print(f"cobotsafety trial: warning: listening on {args.host}, beyond this machine: anyone who can reach "
+                  f"port {server.server.get_port()} can drive the participant view", flush=True)
+        print(f"cobotsafety trial: participant view http://{host}:{server.server.get_port()}  "
+              f"operator view http://{host}:{server.operator_server.get_port()}  "
               f"operator token: {server.token}", flush=True)
         try:
             while True:
                 time.sleep(1.0)
         except KeyboardInterrupt:
+            pass
+        finally:
             server.stop()
         return 0
     if args.repeat:
@@ -51,8 +87,6 @@ def run(args: argparse.Namespace) -> int:
 
         from cobotsafety.trial.power import paper_power, simulated_power, table
 
-        if args.repeat < 1 or args.simulate < 1:
-            raise SystemExit("--repeat K needs K >= 1 and --simulate N with N >= 1")
         if args.paper_effect:
             rows = paper_power(args.simulate, args.repeat, args.seed)
         else:

@@ -58,7 +58,8 @@ def report_text(directory: Path, results: list[Result], records: list[dict], pro
     for r in results:
         ci = "-" if r.ci95 is None else f"[{r.ci95[0]:.2f}, {r.ci95[1]:.2f}]"
         p = _p(r.p) if r.p is not None else "not tested*"
-        lines.append(f"| {r.comparison} | {r.test} | {r.n} | {_fmt(r.sliding_mean)} | {_fmt(r.stop_mean)} | {p} | "
+        means = ("-", "-") if r.comparison.startswith("order effect") else (_fmt(r.sliding_mean), _fmt(r.stop_mean))
+        lines.append(f"| {r.comparison} | {r.test} | {r.n} | {means[0]} | {means[1]} | {p} | "
                      f"{_fmt(r.effect_size)} | {ci} |")
         if r.reason:
             notes.append(f"- {r.comparison}, {r.test}: {r.reason}.")
