@@ -60,5 +60,5 @@ def announce_compilation(prefix: str, write: Callable[[str], None] = _print) -> 
     with event.install_listener("numba:compile", Listener()):
         yield announcer
     if announcer.started_s is not None:
-        write(f"{prefix}: compiled {announcer.compiled} numba kernels in "
+        write(f"{prefix}: compiled {announcer.compiled} numba kernel{'' if announcer.compiled == 1 else 's'} in "
               f"{time.perf_counter() - announcer.started_s:.0f} s (cached for the next start)")
