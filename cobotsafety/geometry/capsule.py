@@ -119,6 +119,12 @@ def _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # prag
         distance[k] = np.sqrt(gx * gx + gy * gy + gz * gz) - ra[k] - rb[k]
 
 
+@numba.njit(cache=True, inline="always")
+def _inside(x):  # pragma: no cover - compiled
+    """Finite and within ``MAX_ABS_M`` (False for NaN)."""
+    return -MAX_ABS_M <= x <= MAX_ABS_M
+
+
 @numba.njit(cache=True)
 def _checked_capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # pragma: no cover - compiled
     """``_capsule_kernel`` after checking every input; returns ``(code, row)``, code 0 = done.
@@ -127,16 +133,18 @@ def _checked_capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):
     ``MAX_ABS_M``; 5-6 ``ra``, ``rb`` is NaN, negative or beyond ``MAX_ABS_M``. Nothing is
     computed then (fail closed: a NaN distance compares as "not too close").
     """
-    points = (a0, a1, b0, b1)
     for k in range(a0.shape[0]):
-        for which in range(4):
-            p = points[which]
-            for i in range(3):
-                if not abs(p[k, i]) <= MAX_ABS_M:
-                    return which + 1, k
-        if not 0.0 <= ra[k] <= MAX_ABS_M:
+        if not (_inside(a0[k, 0]) and _inside(a0[k, 1]) and _inside(a0[k, 2])):
+            return 1, k
+        if not (_inside(a1[k, 0]) and _inside(a1[k, 1]) and _inside(a1[k, 2])):
+            return 2, k
+        if not (_inside(b0[k, 0]) and _inside(b0[k, 1]) and _inside(b0[k, 2])):
+            return 3, k
+        if not (_inside(b1[k, 0]) and _inside(b1[k, 1]) and _inside(b1[k, 2])):
+            return 4, k
+        if not (0.0 <= ra[k] <= MAX_ABS_M):
             return 5, k
-        if not 0.0 <= rb[k] <= MAX_ABS_M:
+        if not (0.0 <= rb[k] <= MAX_ABS_M):
             return 6, k
     _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b)
     return 0, -1
