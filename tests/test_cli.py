@@ -56,7 +56,8 @@ def nothing_runs(monkeypatch):
     ("trial", "--repeat", "-2"),
     ("bench", "planar", "--runs", "-5"), ("bench", "planar", "--runs", "0"), ("bench", "planar", "--invariant", "-3"),
     ("bench", "arm", "--runs", "many"), ("bench", "app", "--clients", "1,-8"), ("bench", "app", "--seconds", "0"),
-    ("bench", "app", "--rate", "5"), ("experiment", "human-approach", "--dt", "inf"),
+    ("bench", "app", "--rate", "5"), ("bench", "app", "--chromium", "/no/such/chromium"),
+    ("experiment", "human-approach", "--dt", "inf"),
     ("experiment", "human-approach", "--dt", "0"), ("nonsense",), (), ("bench",), ("demo", "--no-such-option"),
 ])
 def test_nonsense_is_refused_while_parsing_in_one_line(capsys, nothing_runs, argv):
@@ -156,6 +157,16 @@ def test_options_that_do_not_apply_and_unwritable_folders_are_refused(capsys, tm
     blocker.write_text("not a folder")
     code, _, err = run_cli(capsys, "trial", "--simulate", "1", "--out", str(blocker / "trials"))
     assert str(blocker) in assert_refused_in_one_line(code, err)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("command", ["demo", "trial"])
+@pytest.mark.parametrize("host", ["999.1.1.1", "192.0.2.1", "no-such-host.invalid"])
+def test_a_host_that_cannot_be_bound_is_refused_instead_of_hanging(capsys, tmp_path, command, host):
+    extra = ["--out", str(tmp_path / "out")] if command == "trial" else []
+    code, _, err = run_cli(capsys, command, "--host", host, *extra)
+    assert f"cannot listen on host {host!r}" in assert_refused_in_one_line(code, err)
+    assert not (tmp_path / "out").exists()
 
 
 def test_bench_prints_machine_once(capsys):

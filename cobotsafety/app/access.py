@@ -76,6 +76,23 @@ def is_loopback(host: str) -> bool:
         return False
 
 
+def check_bindable(host: str) -> None:
+    """Raise ``CobotSafetyError`` unless a server can listen on ``host`` (a local address or name).
+
+    viser retries a failed bind on the next 1000 ports and then waits forever: a host that does
+    not resolve or is not this machine's is refused here first (bound on port 0, released).
+    """
+    from cobotsafety.errors import CobotSafetyError  # noqa: PLC0415
+
+    try:
+        infos = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)
+        family, kind, proto, _, address = infos[0]
+        with socket.socket(family, kind, proto) as probe:
+            probe.bind(address)
+    except (OSError, UnicodeError, IndexError) as error:
+        raise CobotSafetyError(f"cannot listen on host {host!r}: {' '.join(str(error).split()) or 'no address'}") from None
+
+
 def reachable_host(host: str) -> str:
     """A host other machines can use to open a server bound to ``host``.
 

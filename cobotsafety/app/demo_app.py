@@ -35,7 +35,8 @@ import numpy as np
 import viser
 
 from cobotsafety.app import draw
-from cobotsafety.app.access import ServerGuard, TokenGate, Verdict, hide_share_button, is_loopback, reachable_host
+from cobotsafety.app.access import (ServerGuard, TokenGate, Verdict, check_bindable, hide_share_button, is_loopback,
+                                    reachable_host)
 from cobotsafety.app import jog as jog_module
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
@@ -135,6 +136,7 @@ class DemoApp:
         known = supported_robots()
         if robot_name not in known:
             raise UnknownRobotError(f"unknown robot {robot_name!r}; known robots: {', '.join(known)}")
+        check_bindable(config.host)
         self.config = config
         self.replay = ReplayControl()
         first = Path(config.replay) if config.replay is not None else bundled_recording()

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from cobotsafety.cli.arguments import positive_int, positive_ints, positive_seconds, rate_hz
+from cobotsafety.cli.arguments import existing_file, positive_int, positive_ints, positive_seconds, rate_hz
 from cobotsafety.ports import free_local_port
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -34,7 +34,7 @@ GIZMO_X_RGB = np.array([249, 45, 104])
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--chromium", default="/usr/bin/chromium", help="Chromium executable")
+    parser.add_argument("--chromium", type=existing_file, default="/usr/bin/chromium", help="Chromium executable")
     parser.add_argument("--seconds", type=positive_seconds, default=10.0, help="loop-rate measurement window [s]")
     parser.add_argument("--drags", type=positive_int, default=10, help="drag-to-motion latency samples")
     parser.add_argument("--robot", default="planar",

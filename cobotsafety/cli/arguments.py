@@ -80,6 +80,15 @@ def non_negative_int(text: str) -> int:
     return value
 
 
+def existing_file(text: str) -> str:
+    """The path of a file that exists (a program the command starts, e.g. Chromium)."""
+    import os  # noqa: PLC0415
+
+    if not os.path.isfile(text):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a file")
+    return text
+
+
 def positive_ints(text: str) -> list[int]:
     """Comma-separated whole numbers >= 1 (``1,8``)."""
     values = [positive_int(part.strip()) for part in text.split(",") if part.strip()]

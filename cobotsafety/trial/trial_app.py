@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from cobotsafety.app.access import ServerGuard, TokenGate, Verdict
+from cobotsafety.app.access import ServerGuard, TokenGate, Verdict, check_bindable
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.app.scenes import make_scene
@@ -59,6 +59,7 @@ class TrialServer:
                  port: int = DEFAULT_PORT, course: Course | None = None, robot: str = "planar",
                  operator_port: int | None = None):
         check_pseudonyms(participants)
+        check_bindable(host)
         self.store = LogStore(out)
         self.seed = seed
         self.plan = session_plan(participants, seed=seed)
