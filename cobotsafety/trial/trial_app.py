@@ -33,8 +33,8 @@ import viser
 
 from cobotsafety.app.access import ServerGuard, TokenGate, Verdict, check_bindable
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
-from cobotsafety.errors import CobotSafetyError
 from cobotsafety.app.scenes import make_scene
+from cobotsafety.errors import CobotSafetyError
 from cobotsafety.trial.colour_task import COLOURS
 from cobotsafety.trial.course import Course, arm_course, planar_course
 from cobotsafety.trial.log_store import LogStore
@@ -73,6 +73,7 @@ class TrialServer:
         self.operator_guard = ServerGuard(self.operator_server, may_change=self.gate.is_authorised)
         self._unwritten: list[tuple[PlannedTrial, TrialRun]] = []
         self._retry_write_s = 0.0
+        self._write_error = ""
         self.scene = make_scene(self.server, robot)
         self.teleop = self.scene.robot
         self._remove_demo_zones()
@@ -191,7 +192,8 @@ class TrialServer:
         for t in self.plan:
             strike = "~~" if (t.participant, t.attention, t.condition) in done else ""
             rows.append(f"- {strike}{t.participant} #{t.order} {t.attention} / {t.condition}{strike}")
-        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n**{self.status}**\n\n" + "\n".join(rows)
+        unwritten = f"**{self._write_error}**\n\n" if self._unwritten else ""  # shown until written
+        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n{unwritten}**{self.status}**\n\n" + "\n".join(rows)
 
     def _refresh_plans(self) -> None:
         text = self._plan_text()
@@ -298,9 +300,11 @@ class TrialServer:
             except (OSError, CobotSafetyError, ValueError) as error:  # kept in memory, retried, shown
                 self._unwritten.append((trial, run))
                 self._retry_write_s = time.monotonic() + RETRY_WRITE_S
-                self.status = (f"NOT LOGGED: {self._describe(trial)} could not be written to {self.store.directory} "
-                               f"({error}); kept in memory and retried every {RETRY_WRITE_S:.0f} s")
-                logger.error("%s", self.status)
+                message = (f"NOT LOGGED: {self._describe(trial)} could not be written to {self.store.directory} "
+                           f"({error}); kept in memory and retried every {RETRY_WRITE_S:.0f} s")
+                if message != self._write_error:  # logged once, not at every retry
+                    logger.error("%s", message)
+                self._write_error = message
                 continue
             self.status = f"Finished: {self._describe(trial)} (logged). Start the next trial."
             self.progress.content = "**Trial complete. Thank you! Waiting for the operator.**"
