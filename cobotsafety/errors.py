@@ -22,3 +22,7 @@ class UnknownRobotError(CobotSafetyError, KeyError):
 
 class MotionLimitsError(CobotSafetyError, ValueError):
     """A robot's motion-limit table is missing, incomplete or invalid; the message names robot and joint."""
+
+
+class PseudonymError(CobotSafetyError, ValueError):
+    """A participant pseudonym that could not name a file safely, or one given twice."""

@@ -48,13 +48,13 @@ def test_invalid_file_is_refused_and_previous_replay_keeps_running(control, tmp_
     bad = tmp_path / "broken.jsonl.gz"
     bad.write_bytes(content)
     message = control.load(bad)
-    assert message.startswith("refused broken.jsonl.gz: ") and "broken.jsonl.gz" in message[24:]
+    assert message.startswith("broken.jsonl.gz is not a readable recording (") and message.count("broken.jsonl.gz") == 1
     assert control.replay is previous and control.name == "reach-over.jsonl.gz"
 
 
 def test_missing_bag_is_refused(control, tmp_path):
     message = control.load(tmp_path / "nothing.bag")
-    assert message.startswith("refused nothing.bag")
+    assert message == "nothing.bag is not a readable ROS bag (no such bag)"
     assert control.name == "reach-over.jsonl.gz"
 
 

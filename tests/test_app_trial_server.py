@@ -1,6 +1,8 @@
 """The trial server's operator side without a browser: plan status, Repeat after Abort, the
 colour task starting with the trial, "Trial k of 4" kept, touch feedback, no demo zones."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -94,6 +96,10 @@ def test_wrong_token_is_refused_and_cleared(server):
     token.value = "0" * len(server.token) if server.token != "0" * len(server.token) else "1" * len(server.token)
     callback(None)
     assert token.value == "" and "wrong token" in feedback.content.lower()
+    token.value = server.token
+    callback(None)  # within the connection's backoff: not compared
+    assert token.value == "" and "too soon" in feedback.content.lower()
+    server.gate.clock = lambda: time.monotonic() + 3600.0  # the backoff has passed
     token.value = server.token
     callback(None)
     assert [c[0][0] for c in client.gui.add_folder.call_args_list[-2:]] == ["Trial", "Session"]

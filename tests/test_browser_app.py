@@ -262,3 +262,39 @@ def test_panda_replay_draws_the_human_and_one_distance(browser):
         page.close()
     finally:
         demo.stop()
+
+
+SUCCESS_WATCH = """() => {
+    window.__uploadedSuccessfully = 0;
+    new MutationObserver(() => {
+        if (document.body.textContent.includes("File uploaded successfully")) window.__uploadedSuccessfully += 1;
+    }).observe(document.body, {subtree: true, childList: true, characterData: true});
+}"""
+
+
+def test_a_refused_upload_never_says_it_was_uploaded_successfully(browser, app):
+    """Issue 25 item 2: no viser "File uploaded successfully." for a refused file, one plain
+    sentence naming it once, gone from the Replay folder at the next action; a good file still
+    gets viser's notice (the watch can see it)."""
+    from cobotsafety.human.recording import bundled_recording
+
+    page = open_page(browser, app)
+    page.evaluate(SUCCESS_WATCH)
+    page.get_by_text("Replay").first.click()
+    page.locator("input[type=file]").set_input_files(
+        files=[{"name": "corrupt.jsonl.gz", "mimeType": "application/gzip", "buffer": b"\x1f\x8b\x08 truncated"}])
+    page.get_by_text("Recording refused").wait_for()
+    time.sleep(3.0)  # viser's notice would have shown by now
+    assert page.evaluate("window.__uploadedSuccessfully") == 0
+    sentence = page.get_by_text("corrupt.jsonl.gz is not a readable recording (").first.inner_text()
+    assert sentence.count("corrupt.jsonl.gz") == 1 and "refused corrupt" not in sentence
+    page.get_by_role("checkbox", name="Loop").click()  # the next action
+    wait_until(lambda: "corrupt.jsonl.gz is not" not in app.panel.replay_message.content, what="the folder cleared")
+    page.get_by_role("checkbox", name="Loop").click()
+    page.locator("input[type=file]").set_input_files(
+        files=[{"name": "take.jsonl.gz", "mimeType": "application/gzip", "buffer": bundled_recording().read_bytes()}])
+    wait_until(lambda: page.evaluate("window.__uploadedSuccessfully") > 0, what="viser's notice for a good file")
+    assert app.replay.name == "take.jsonl.gz"
+    app.panel.recording.value = "reach-over.jsonl.gz"  # as the other tests expect
+    wait_until(lambda: app.replay.name == "reach-over.jsonl.gz", what="the bundled recording again")
+    page.close()

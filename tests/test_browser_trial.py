@@ -62,6 +62,7 @@ def test_participant_and_operator_views(tmp_path):
             operator.get_by_text("Wrong token").wait_for()
             assert "Start next trial" not in operator.inner_text("body")
             assert token_box.input_value() == ""
+            time.sleep(1.1)  # the connection's backoff after a wrong token (1 s)
             operator.get_by_role("textbox").last.fill(server.token)
             operator.get_by_text("Start next trial").wait_for()
             assert server.token not in operator.inner_text("body")  # the token left the page

@@ -220,3 +220,59 @@ def test_exact_oracle_agrees_with_coal_and_random_pairs_are_exact():
         assert exact - ra - rb == pytest.approx(coal_distance(a0, a1, ra, b0, b1, rb), abs=1e-9)
         distance, _, _ = capsule_distance(a0, a1, ra, b0, b1, rb)
         assert abs(float(distance) + ra + rb - exact) <= 1e-15
+
+
+# ---- fail closed on bad values (issue 22, item 8) ------------------------------------------
+BAD_COORDINATES = (np.nan, np.inf, -np.inf, 1e300, -2e75)
+ARGUMENT_NAMES = ("a0", "a1", "ra", "b0", "b1", "rb")
+
+
+def five_by_three_pairs(rng):
+    """5 human x 3 robot capsules, broadcast as the app does: shapes (5, 1, 3) and (1, 3, 3)."""
+    return [rng.normal(size=(5, 1, 3)), rng.normal(size=(5, 1, 3)), rng.uniform(0.01, 0.2, (5, 1)),
+            rng.normal(size=(1, 3, 3)), rng.normal(size=(1, 3, 3)), rng.uniform(0.01, 0.2, (1, 3))]
+
+
+@pytest.mark.parametrize("argument", range(6))
+@pytest.mark.parametrize("bad", BAD_COORDINATES + (-0.01,))
+def test_a_non_finite_negative_or_overflowing_value_is_refused_naming_the_argument(argument, bad):
+    rng = np.random.default_rng(argument)
+    args = five_by_three_pairs(rng)
+    if bad == -0.01 and argument not in (2, 5):
+        return  # a negative coordinate is fine; a negative radius is not
+    broken = np.array(args[argument], dtype=float)
+    broken.reshape(-1)[-1] = bad  # the last element: every row before it is valid
+    args[argument] = broken
+    with pytest.raises(ValueError, match=rf"capsule_distance: {ARGUMENT_NAMES[argument]}\b"):
+        capsule_distance(*args)
+
+
+def test_the_refusal_names_the_index_in_the_batch():
+    rng = np.random.default_rng(1)
+    args = five_by_three_pairs(rng)
+    args[3] = np.array(args[3])
+    args[3][0, 2, 1] = np.nan
+    with pytest.raises(ValueError, match=r"b0\[\d, 2\]"):
+        capsule_distance(*args)
+
+
+def test_segment_closest_points_refuses_non_finite_points():
+    with pytest.raises(ValueError, match="a1"):
+        segment_closest_points(np.zeros(3), np.array([0.0, np.inf, 0.0]), np.ones(3), 2 * np.ones(3))
+
+
+def test_values_up_to_the_bound_give_finite_results():
+    """Random pairs at every scale up to ``MAX_ABS_M``: never NaN, never a refusal."""
+    from cobotsafety.geometry.capsule import MAX_ABS_M
+
+    rng = np.random.default_rng(7)
+    for exponent in (-300, -5, 0, 5, 50, 74):
+        scale = min(10.0 ** exponent, MAX_ABS_M / 4)
+        a0, a1, b0, b1 = (np.clip(rng.normal(size=(200, 3)) * scale, -MAX_ABS_M, MAX_ABS_M) for _ in range(4))
+        ra, rb = rng.uniform(0, 1, 200) * scale, rng.uniform(0, 1, 200) * scale
+        for args in ((a0, a1, ra, b0, b1, rb), (a0, a0, ra, b0, b0, rb), (a0, a1, ra, a0, a1, rb)):
+            d, pa, pb = capsule_distance(*args)
+            assert np.all(np.isfinite(d)) and np.all(np.isfinite(pa)) and np.all(np.isfinite(pb))
+    edge = np.full(3, MAX_ABS_M)
+    d, _, _ = capsule_distance(edge, -edge, MAX_ABS_M, -edge, edge, MAX_ABS_M)
+    assert np.isfinite(d)

@@ -8,13 +8,23 @@ mid-drag releases the gizmo.
 What a frame sends is bounded: scene nodes are made once and a frame only sets poses,
 visibility and colours (no mesh is re-sent), the status is refreshed at ~5 Hz and the plots at
 ~2 Hz. The replay starts paused so a visitor first sees the robot at home, waiting for a drag.
+
+Access (``cobotsafety.app.access``): no tab can publish the server (viser's share tunnel is
+refused and its button hidden); every value a tab sends is checked against its control's
+range; bound to loopback every tab may drive the robot, bound beyond it a tab must first
+enter the token printed at start (``DemoApp.token``), and sees but changes nothing until
+then. Uploads are received by ``cobotsafety.app.uploads`` (size limit, odd names refused,
+nothing left on disk, no "uploaded" notice for a refused file).
 """
 
 from __future__ import annotations
 
 import gc
 import logging
+import math
+import shutil
 import sys
+import tempfile
 import threading
 import time
 import warnings
@@ -25,17 +35,21 @@ import numpy as np
 import viser
 
 from cobotsafety.app import draw
+from cobotsafety.app.access import (ServerGuard, TokenGate, Verdict, check_bindable, hide_share_button, is_loopback,
+                                    reachable_host)
 from cobotsafety.app import jog as jog_module
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
 from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look, status_text
 from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
-from cobotsafety.app.replay_control import ReplayControl, seek_maximum_s, without_server_paths
+from cobotsafety.app.replay_control import ReplayControl, load_replay, refusal_sentence, seek_maximum_s, without_server_paths
 from cobotsafety.app.scene_human import HumanView, minimum_distance
 from cobotsafety.app.scenes import PLANAR, make_scene
+from cobotsafety.app.uploads import UploadReceiver, check_upload_name
 from cobotsafety.app.zones_editor import ZoneEditor
-from cobotsafety.errors import CobotSafetyError, RecordingError
+from cobotsafety.cli.arguments import MAX_RATE_HZ, MIN_RATE_HZ
+from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotError
 from cobotsafety.human.recording import bundled_recording
 
 logger = logging.getLogger(__name__)
@@ -51,11 +65,30 @@ class DemoConfig:
     replay: Path | None = None
     """Human recording (.jsonl.gz) or ROS bag; None = the bundled recording."""
     host: str = "127.0.0.1"
+    """Interface to bind; beyond loopback a tab needs ``token`` to change anything."""
     port: int = 8080
+    """0-65535 (0: the OS picks a free port)."""
     rate_hz: float = 1000.0
+    """Control rate [Hz], ``MIN_RATE_HZ``-``MAX_RATE_HZ``."""
     render_hz: float = 30.0
+    token: str | None = None
+    """The token a tab enters to change the demo when bound beyond loopback (None: a new
+    random one); unused on loopback."""
+
+    def check(self) -> None:
+        """Raise ``CobotSafetyError`` naming the first field out of range."""
+        if self.scene not in ("planar", "arm"):
+            raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {self.scene!r}")
+        if not (isinstance(self.port, int) and 0 <= self.port <= 65535):
+            raise CobotSafetyError(f"port {self.port!r} is not a TCP port (0-65535)")
+        if not (math.isfinite(self.rate_hz) and MIN_RATE_HZ <= self.rate_hz <= MAX_RATE_HZ):
+            raise CobotSafetyError(f"control rate {self.rate_hz!r} Hz is outside {MIN_RATE_HZ:.0f}-{MAX_RATE_HZ:.0f} Hz")
+        if not (math.isfinite(self.render_hz) and 1.0 <= self.render_hz <= 120.0):
+            raise CobotSafetyError(f"render rate {self.render_hz!r} Hz is outside 1-120 Hz")
 
 
+MAX_KEPT_UPLOADS = 8
+"""Uploaded recordings kept (in memory) in the Recording list; older ones are dropped."""
 GIL_SWITCH_INTERVAL_S = 0.0005
 """Python's thread switch interval while the demo runs [s] (default 0.005)."""
 CONTROL_FIFO_PRIORITY = 10
@@ -98,9 +131,12 @@ class DemoApp:
     """The running demo. ``start()`` then ``url``; ``stop()`` shuts everything down."""
 
     def __init__(self, config: DemoConfig = DemoConfig()):
-        if config.scene not in ("planar", "arm"):
-            raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
+        config.check()
         robot_name = PLANAR if config.scene == "planar" else (config.robot or "panda")
+        known = supported_robots()
+        if robot_name not in known:
+            raise UnknownRobotError(f"unknown robot {robot_name!r}; known robots: {', '.join(known)}")
+        check_bindable(config.host)
         self.config = config
         self.replay = ReplayControl()
         first = Path(config.replay) if config.replay is not None else bundled_recording()
@@ -108,9 +144,28 @@ class DemoApp:
         if message:  # a bad --replay is refused at start-up with the loader's message
             raise RecordingError(message)
         self.replay.playing = False  # the robot waits at home until the visitor plays the human
-        self.recordings: dict[str, Path] = {self.replay.name: first}
+        self.recordings: dict[str, Path | object] = {self.replay.name: first}
+        """Recording list: bundled or --replay files by path, uploads as loaded replays."""
+        self._uploaded: list[str] = []
+        self.token_gate = None if is_loopback(config.host) else TokenGate(config.token, what="demo token")
         self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
-        self.server.gui.configure_theme(control_width="large")
+        try:
+            self._build(robot_name)
+        except BaseException:
+            self.server.stop()
+            raise
+
+    @property
+    def token(self) -> str | None:
+        """The token a tab must enter to change the demo (None on loopback: every tab may)."""
+        return None if self.token_gate is None else self.token_gate.token
+
+    def _build(self, robot_name: str) -> None:
+        config = self.config
+        self.guard = ServerGuard(self.server, may_change=self.may_change,
+                                 view_only_hint="Watching only: enter the token printed when the demo started "
+                                                "(folder 'Change the demo') to drive the robot or change the scene.")
+        hide_share_button(self.server, control_width="large")
         self.scene = make_scene(self.server, robot_name)
         self._planar_label = PLANAR_SCENES[0]
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY),
@@ -140,7 +195,39 @@ class DemoApp:
         self.last_min_distance_m: float | None = None
         """The one minimum distance shown by the status, the scene label and the plot [m]."""
         self.gizmo = self._make_gizmo()
+        self.uploads = UploadReceiver(self.server, self.panel.upload, self.load_uploaded, refused_title="Recording refused")
+        self.guard.uploads[self.uploads.uuid] = self.uploads
+        self._refusal_shown = False
+        self.guard.on_change.append(self._clear_refusal)
         self._wire()
+        if self.token_gate is not None:
+            self.server.on_client_connect(self._offer_login)
+
+    def may_change(self, client_id: int) -> bool:
+        """Whether tab ``client_id`` may change the robot or the scene."""
+        return self.token_gate is None or self.token_gate.is_authorised(client_id)
+
+    def _offer_login(self, client: viser.ClientHandle) -> None:
+        """Beyond loopback: a tab's own folder where it enters the token (removed once accepted)."""
+        self.guard.protect_client(client)
+        gate = self.token_gate
+        with client.gui.add_folder("Change the demo") as folder:
+            token = client.gui.add_text("Token", initial_value="", hint="the token printed when the demo started")
+            feedback = client.gui.add_markdown("This tab is watching. Enter the token to drive the robot.")
+
+        @token.on_update
+        def _(_event) -> None:
+            verdict = gate.check(client.client_id, token.value)
+            if verdict is Verdict.ACCEPTED:
+                folder.remove()  # the token leaves the page once accepted
+                client.add_notification("Token accepted", "This tab may now drive the robot.", color="green",
+                                        auto_close_seconds=4.0)
+            elif verdict is Verdict.WRONG:
+                token.value = ""
+                feedback.content = f"**Wrong token.** Try again in {gate.wait_s(client.client_id):.0f} s."
+            elif verdict is Verdict.WAIT:
+                token.value = ""
+                feedback.content = f"**Too soon.** Wait {gate.wait_s(client.client_id):.0f} s, then try again."
 
     # ---- wiring --------------------------------------------------------------------------
     def _make_gizmo(self) -> viser.TransformControlsHandle:
@@ -165,6 +252,8 @@ class DemoApp:
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
+            if self.token_gate is not None:
+                self.token_gate.forget(client.client_id)
             if client.client_id == self._dragging_client:
                 self._dragging_client = None
                 loop.release_gizmo()
@@ -238,43 +327,72 @@ class DemoApp:
 
         @panel.recording.on_update
         def _(_event) -> None:
-            path = self.recordings.get(panel.recording.value)
-            if path is not None and panel.recording.value != replay.name:
-                self.show_replay_message(replay.load(path, panel.recording.value))
-                self._show_play_button()
-
-        @panel.upload.on_upload
-        def _(event) -> None:
-            upload = panel.upload.value
-            self.load_uploaded(upload.name, upload.content, event.client)
+            name = panel.recording.value
+            source = self.recordings.get(name)
+            if source is None or name == replay.name:
+                return
+            if isinstance(source, Path):
+                self.show_replay_message(replay.load(source, name))
+            else:  # an upload, kept loaded
+                replay.use(source, name)
+                self.show_replay_message("")
+            self.panel.seek_s.max = seek_maximum_s(replay.duration_s)
+            self._show_play_button()
 
     # ---- actions ------------------------------------------------------------------------
-    def load_uploaded(self, name: str, content: bytes, client: viser.ClientHandle | None = None) -> str:
-        """Save an uploaded recording or bag and switch to it; returns the refusal or "".
+    def load_uploaded(self, name: str, content: bytes) -> str:
+        """Load an uploaded recording or bag and switch to it; returns the refusal or "".
 
-        A refusal names the file and the loader's reason, never a server path; it goes to the
-        uploading tab as a red notification, and the previous replay keeps running.
+        The bytes go to a temporary folder that is deleted as soon as the loader is done,
+        whether it accepted them or not; an accepted replay is kept in memory (the last
+        ``MAX_KEPT_UPLOADS``). A refusal is one sentence naming the file once, never a server
+        path; the previous replay keeps running. (The uploading tab's notification is the
+        ``UploadReceiver``'s.)
         """
-        import tempfile  # noqa: PLC0415
+        refusal = check_upload_name(name)
+        if refusal:
+            self.show_replay_message(refusal)
+            return refusal
+        folder = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-"))
+        path = folder / name
+        try:
+            path.write_bytes(content)
+            replay = load_replay(path)
+        except (CobotSafetyError, OSError, ValueError) as error:
+            refusal = without_server_paths(refusal_sentence(name, error), path)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+        if refusal:
+            self.show_replay_message(refusal)
+            return refusal
+        self.replay.use(replay, name)
+        self._keep_upload(name, replay)
+        self.panel.recording.options = tuple(self.recordings)
+        self.panel.recording.value = name
+        self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
+        self._show_play_button()
+        self.show_replay_message("")
+        return ""
 
-        path = Path(tempfile.mkdtemp(prefix="cobotsafety-upload-")) / Path(name).name
-        path.write_bytes(content)
-        message = without_server_paths(self.replay.load(path, path.name), path)
-        if not message:
-            self.recordings[path.name] = path
-            self.panel.recording.options = tuple(self.recordings)
-            self.panel.recording.value = path.name
-            self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
-            self._show_play_button()
-        elif client is not None:
-            client.add_notification("Recording refused", message, color="red", with_close_button=True)
-        self.show_replay_message(message)
-        return message
+    def _keep_upload(self, name: str, replay) -> None:
+        if name in self._uploaded:
+            self._uploaded.remove(name)
+        self._uploaded.append(name)
+        self.recordings[name] = replay
+        while len(self._uploaded) > MAX_KEPT_UPLOADS:
+            self.recordings.pop(self._uploaded.pop(0), None)
 
     def show_replay_message(self, message: str) -> None:
+        """A refusal in the Replay folder (until the next action in any tab), or what is loaded."""
         self.panel.replay_message.content = f"**{message}**" if message else f"loaded {self.replay.name}"
+        self._refusal_shown = bool(message)
         if message:
             logger.warning("%s", message)
+
+    def _clear_refusal(self, _client_id: int) -> None:
+        if self._refusal_shown:
+            self._refusal_shown = False
+            self.panel.replay_message.content = ""
 
     def _show_play_button(self) -> None:
         self.panel.play.label, self.panel.play.icon = play_button_look(self.replay.playing)
@@ -438,9 +556,37 @@ class DemoApp:
     # ---- lifecycle ----------------------------------------------------------------------
     @property
     def url(self) -> str:
-        host = self.server.get_host()
-        shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
+        """The URL to open: on loopback this machine's; bound beyond, one other machines can use."""
+        host = reachable_host(self.server.get_host())
+        shown = f"[{host}]" if ":" in host else host
         return f"http://{shown}:{self.server.get_port()}"
+
+    def start_lines(self) -> list[str]:
+        """What ``cobotsafety demo`` prints once started: the URL, and beyond loopback a warning and the token."""
+        lines = [f"open {self.url}"]
+        if self.token_gate is not None:
+            lines.insert(0, f"warning: listening on {self.config.host}, beyond this machine: anyone who can reach "
+                            f"port {self.server.get_port()} can watch the demo")
+            lines.append(f"to drive the robot or change the scene, enter this token in the page: {self.token}")
+        return lines
+
+    def failure(self) -> str:
+        """Why the running demo cannot serve ("" while it can): its control or render thread died."""
+        if not self.loop.running:
+            return "the control loop stopped (see the log above)"
+        if self._render_thread is not None and not self._render_thread.is_alive() and not self._stop.is_set():
+            return "the render loop stopped (see the log above)"
+        return ""
+
+    def wait_until_running(self, timeout_s: float = 600.0) -> str:
+        """Block until the loop has stepped and a frame was drawn (kernels compiled); returns ``failure()``."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            problem = self.failure()
+            if problem or (self.frames > 0 and self.loop.snapshot().steps > 0):
+                return problem
+            time.sleep(0.05)
+        return f"the demo did not draw its first frame within {timeout_s:.0f} s"
 
     def start(self) -> "DemoApp":
         # The control thread must not wait CPython's default 5 ms for the GIL while the render
@@ -458,5 +604,6 @@ class DemoApp:
         if self._render_thread is not None:
             self._render_thread.join(timeout=2.0)
         self.loop.stop()
+        self.uploads.close()
         self.server.stop()
         gc.unfreeze()  # the stopped demo's objects can be collected again

@@ -1,7 +1,8 @@
 """Replay playback for the demo: which recording, playing or paused, time, speed, loop.
 
 Loading goes through ``cobotsafety.human.replay.Replay`` (its loader validates); a file that
-fails validation is refused with the loader's message and the previous replay keeps running.
+fails validation is refused with one plain sentence naming it once (``refusal_sentence``) and
+the previous replay keeps running.
 Time advances with the wall clock times ``speed`` while playing.
 """
 
@@ -33,6 +34,26 @@ def seek_maximum_s(duration_s: float) -> float:
     return max(math.floor(duration_s * 100.0 + 1e-6) / 100.0, 0.01)
 
 
+def refusal_sentence(name: str, error: BaseException | str) -> str:
+    """One plain sentence for a refused file: ``take.bag is not a readable ROS bag (no LaserScan messages)``.
+
+    The loader's message names the file and line (``/tmp/x/take.bag:3: what (details)``): the
+    location goes (the name is said once, the line kept as "line 3"), and so does a trailing
+    parenthesised technical detail (a codec's or parser's own words).
+    """
+    kind = "ROS bag" if Path(name).suffix in BAG_SUFFIXES else "recording"
+    text = " ".join(str(error).split())
+    match = (re.match(rf"^.*?{re.escape(name)}(?::(?P<line>\d+))?: (?P<what>.+)$", text)
+             or re.match(r"^\S*?(?::(?P<line>\d+))?: (?P<what>.+)$", text))
+    what, line = (match.group("what"), match.group("line")) if match else (text, None)
+    what = re.sub(r"\s*\((?:[^()]|\([^()]*\))*\)$", "", what).strip() or what  # drop a trailing "(...)"
+    what = re.sub(r"/(?:tmp|var|root|home|opt|usr|work)/\S*", "the file", what)
+    if len(what) > 90:
+        what = what[:87].rstrip() + "..."
+    where = f"line {line}: " if line else ""
+    return f"{name} is not a readable {kind} ({where}{what})"
+
+
 def without_server_paths(message: str, path: Path) -> str:
     """``message`` with the server-side location of ``path`` removed (only its name is shown)."""
     for location in (str(path), str(path.parent) + "/", str(path.parent)):
@@ -53,15 +74,20 @@ class ReplayControl:
         """Seconds since the recording's start."""
 
     def load(self, path: Path, name: str | None = None) -> str:
-        """Switch to ``path``; returns "" or the loader's error (and keeps the previous replay)."""
+        """Switch to ``path``; returns "" or ``refusal_sentence`` (and keeps the previous replay)."""
+        name = name or Path(path).name
         try:
             replay = load_replay(path)
         except (CobotSafetyError, OSError, ValueError) as error:
-            return f"refused {Path(path).name}: {error}"
-        with self.lock:
-            self.replay, self.name = replay, name or Path(path).name
-            self.time_s, self.playing = 0.0, True
+            return refusal_sentence(name, error)
+        self.use(replay, name)
         return ""
+
+    def use(self, replay, name: str) -> None:
+        """Switch to an already loaded ``Replay`` (an upload kept in memory), from its start."""
+        with self.lock:
+            self.replay, self.name = replay, name
+            self.time_s, self.playing = 0.0, True
 
     @property
     def duration_s(self) -> float:

@@ -23,14 +23,19 @@ def decode_frame(frame: bytes) -> list[str]:
     return [kind for kind, _ in decode_messages(frame)]
 
 
-def decode_messages(frame: bytes) -> list[tuple[str, str]]:
-    """``(type, node or GUI name)`` of each message in one websocket frame."""
+def decode_payloads(frame: bytes) -> list[dict]:
+    """Each message in one websocket frame as the dict viser serialised (``"type"`` and fields;
+    numpy arrays are left as viser's placeholders for the frame's binary buffers)."""
     inner_size = int.from_bytes(frame[0:8], "little")
     compressed_size = int.from_bytes(frame[8:16], "little")
     inner = zstandard.ZstdDecompressor().decompress(frame[16:16 + compressed_size], max_output_size=inner_size)
-    payload = msgspec.msgpack.decode(inner)
+    return list(msgspec.msgpack.decode(inner).get("messages", ()))
+
+
+def decode_messages(frame: bytes) -> list[tuple[str, str]]:
+    """``(type, node or GUI name)`` of each message in one websocket frame."""
     return [(str(message.get("type", "?")), str(message.get("name", message.get("uuid", ""))))
-            for message in payload.get("messages", ())]
+            for message in decode_payloads(frame)]
 
 
 class WireProbe:

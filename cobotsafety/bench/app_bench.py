@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from cobotsafety.cli.arguments import existing_file, positive_int, positive_ints, positive_seconds, rate_hz
 from cobotsafety.ports import free_local_port
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -33,13 +34,13 @@ GIZMO_X_RGB = np.array([249, 45, 104])
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--chromium", default="/usr/bin/chromium", help="Chromium executable")
-    parser.add_argument("--seconds", type=float, default=10.0, help="loop-rate measurement window [s]")
-    parser.add_argument("--drags", type=int, default=10, help="drag-to-motion latency samples")
+    parser.add_argument("--chromium", type=existing_file, default="/usr/bin/chromium", help="Chromium executable")
+    parser.add_argument("--seconds", type=positive_seconds, default=10.0, help="loop-rate measurement window [s]")
+    parser.add_argument("--drags", type=positive_int, default=10, help="drag-to-motion latency samples")
     parser.add_argument("--robot", default="planar",
                         help="scene for the loop-rate window: planar (default) or an arm name (panda, ur5, ...)")
-    parser.add_argument("--rate", type=float, default=1000.0, help="control-loop rate [Hz] (default 1000)")
-    parser.add_argument("--clients", default="1,8", help="counting clients per phase, comma-separated")
+    parser.add_argument("--rate", type=rate_hz, default=1000.0, help="control-loop rate [Hz] (default 1000)")
+    parser.add_argument("--clients", type=positive_ints, default="1,8", help="counting clients per phase, comma-separated")
     parser.add_argument("--skip-startup", action="store_true", help="do not time the start-up of `cobotsafety demo`")
 
 
@@ -202,7 +203,7 @@ def run(args: argparse.Namespace) -> dict:
                 time.sleep(2.0)
             result["robot"] = args.robot
             result["phases"] = [_phase(app, clients, moving, args.seconds)
-                                for clients in (int(c) for c in args.clients.split(","))
+                                for clients in args.clients
                                 for moving in (False, True)]
             page.screenshot(path=f"/tmp/cobotsafety_app_{args.robot}.png")
             for phase in result["phases"]:

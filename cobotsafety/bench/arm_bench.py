@@ -21,6 +21,8 @@ import argparse
 import os
 import time
 
+from cobotsafety.cli.arguments import positive_int
+
 BLOCK = 10
 """Calls of one step in a row per round: a control loop calls its step again and again, so each
 is timed after its own kind (one call each per round would time every call with its caches
@@ -32,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--robot", default=DEFAULT_ROBOT, choices=list(ROBOTS))
     parser.add_argument("--json", action="store_true", help='print {"name": "arm_step", "robot": ..., "median_us": ...}')
-    parser.add_argument("--runs", type=int, default=2000)
+    parser.add_argument("--runs", type=positive_int, default=2000, help="timed steps (default 2000)")
 
 
 DT_S = 0.001

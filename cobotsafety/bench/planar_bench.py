@@ -13,12 +13,14 @@ import argparse
 
 import numpy as np
 
+from cobotsafety.cli.arguments import non_negative_int, positive_int
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true",
                         help='print {"name": "planar_step", "median_us": ..., "reference_net_median_us": ...}')
-    parser.add_argument("--runs", type=int, default=20_000, help="timed steps (default 20000)")
-    parser.add_argument("--invariant", type=int, default=0, metavar="N",
+    parser.add_argument("--runs", type=positive_int, default=20_000, help="timed steps (default 20000)")
+    parser.add_argument("--invariant", type=non_negative_int, default=0, metavar="N",
                         help="also run N random steps and count limitation crossings")
 
 

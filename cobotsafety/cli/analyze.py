@@ -28,7 +28,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cobotsafety.errors import RecordingError
     from cobotsafety.trial.analysis import write_report
+    from cobotsafety.trial.log_store import LOG_NAME
+
+    if not args.directory.is_dir():  # refused before anything is written
+        raise RecordingError(f"{args.directory}: no such folder of trial logs")
+    if not (args.directory / LOG_NAME).is_file():
+        raise RecordingError(f"{args.directory}: holds no {LOG_NAME}, nothing to analyse")
 
     text, results = write_report(args.directory, args.out)
     if args.json:

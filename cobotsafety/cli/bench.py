@@ -2,7 +2,8 @@
 
 Each bench module (``cobotsafety/bench/<name>.py``) exposes ``add_arguments(parser)`` and
 ``run(args) -> dict``; the dict is printed as JSON with ``--json`` (one object, its ``name`` and
-``median_us`` keys first) or as ``key: value`` lines otherwise.
+``median_us`` keys first) or as ``key: value`` lines otherwise, with one ``machine:`` line
+(the bench's own when it has one).
 """
 
 from __future__ import annotations
@@ -34,5 +35,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         for key, value in result.items():
             print(f"{key}: {value}")
-        print(f"machine: {machine_description()}")
+        if "machine" not in result:
+            print(f"machine: {machine_description()}")
     return 0

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cobotsafety.cli.arguments import bounded_float
 from cobotsafety.experiments import approach_settings as settings
 from cobotsafety.experiments.approach_metrics import RunMetrics, plain_distance_m, run_metrics
 from cobotsafety.experiments.approach_truth import TruthHuman
@@ -254,7 +255,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="robot capsule model (default: paper 2's three capsules)")
     parser.add_argument("--json", action="store_true", help="print a JSON list of result objects")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR", help="write PNG plots (Figs. 11, 12, 14) there")
-    parser.add_argument("--dt", type=float, default=1 / settings.CONTROL_RATE_HZ,
+    parser.add_argument("--dt", type=bounded_float(0.0, 0.05, "s"), default=1 / settings.CONTROL_RATE_HZ,
                         help=f"control period [s] (default 1/{settings.CONTROL_RATE_HZ:.0f}, paper 2's robot update rate)")
 
 
@@ -262,8 +263,6 @@ def run(args: argparse.Namespace) -> int:
     from cobotsafety.arm.robots import robot_spec
 
     robot_spec(args.robot)  # a clear error for an unknown robot before the replay loads
-    if not (np.isfinite(args.dt) and 0 < args.dt <= 0.05):
-        raise SystemExit(f"--dt must be in (0, 0.05] s, got {args.dt}")
     loaded = load_scenario(args.scenario, args.replay, args.scanner)
     runs = [run_approach(c, args.ssm, args.scenario, args.robot, args.replay, args.capsules, args.dt, loaded=loaded)
             for c in (args.controller or CONTROLLERS)]

@@ -19,6 +19,9 @@ import numpy as np
 
 #: Squared lengths [m^2] below this count as zero-length segments.
 _EPS_LENGTH2 = 1e-24
+#: Largest coordinate or radius magnitude accepted [m]: far beyond any workspace, and small
+#: enough that the fourth powers of lengths (``a * e`` in the 2x2 system) stay finite.
+MAX_ABS_M = 1e75
 #: ``sin^2`` of the angle between the axes below which the 2x2 system of the lines' closest
 #: points counts as ill-conditioned: the clamped solution is then checked against the four
 #: end-point-to-segment candidates (the only other places the minimum can be).
@@ -124,6 +127,52 @@ def _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # prag
         distance[k] = capsule_pair(a0[k], a1[k], ra[k], b0[k], b1[k], rb[k], point_a[k], point_b[k])
 
 
+@numba.njit(cache=True, inline="always")
+def _inside(x):  # pragma: no cover - compiled
+    """Finite and within ``MAX_ABS_M`` (False for NaN)."""
+    return -MAX_ABS_M <= x <= MAX_ABS_M
+
+
+@numba.njit(cache=True)
+def _checked_capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b):  # pragma: no cover - compiled
+    """``_capsule_kernel`` after checking every input; returns ``(code, row)``, code 0 = done.
+
+    Codes: 1-4 a coordinate of ``a0``, ``a1``, ``b0``, ``b1`` is NaN, infinite or beyond
+    ``MAX_ABS_M``; 5-6 ``ra``, ``rb`` is NaN, negative or beyond ``MAX_ABS_M``. Nothing is
+    computed then (fail closed: a NaN distance compares as "not too close").
+    """
+    for k in range(a0.shape[0]):
+        if not (_inside(a0[k, 0]) and _inside(a0[k, 1]) and _inside(a0[k, 2])):
+            return 1, k
+        if not (_inside(a1[k, 0]) and _inside(a1[k, 1]) and _inside(a1[k, 2])):
+            return 2, k
+        if not (_inside(b0[k, 0]) and _inside(b0[k, 1]) and _inside(b0[k, 2])):
+            return 3, k
+        if not (_inside(b1[k, 0]) and _inside(b1[k, 1]) and _inside(b1[k, 2])):
+            return 4, k
+        if not (0.0 <= ra[k] <= MAX_ABS_M):
+            return 5, k
+        if not (0.0 <= rb[k] <= MAX_ABS_M):
+            return 6, k
+    _capsule_kernel(a0, a1, ra, b0, b1, rb, distance, point_a, point_b)
+    return 0, -1
+
+
+_ARGUMENTS = ("a0", "a1", "b0", "b1", "ra", "rb")
+
+
+def _refusal(code: int, row: int, flat_inputs: list[np.ndarray], batch: tuple[int, ...]) -> ValueError:
+    """The ``ValueError`` for a ``_checked_capsule_kernel`` code: argument, index, value, rule."""
+    name = _ARGUMENTS[code - 1]
+    index = np.unravel_index(row, batch) if batch else ()
+    where = f"{name}[{', '.join(str(int(i)) for i in index)}]" if batch else name
+    value = flat_inputs[code - 1][row]
+    if code <= 4:
+        return ValueError(f"capsule_distance: {where} = {np.array2string(np.asarray(value))} must be finite "
+                          f"with |coordinate| <= {MAX_ABS_M:g} m")
+    return ValueError(f"capsule_distance: {where} = {float(value)!r} must be a radius in [0, {MAX_ABS_M:g}] m")
+
+
 def _flat(x, shape: tuple[int, ...], width: int) -> np.ndarray:
     """``x`` broadcast to ``shape`` as a C-contiguous float64 array of ``width``-wide rows."""
     x = np.asarray(x, dtype=float)
@@ -147,8 +196,10 @@ def _run(a0, a1, ra, b0, b1, rb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     distance, point_a, point_b = np.empty(batch), np.empty(shape), np.empty(shape)
     p = [_flat(x, shape, 3) for x in points]
     r = [_flat(x, batch, 1) for x in radii]
-    _capsule_kernel(p[0], p[1], r[0], p[2], p[3], r[1], distance.reshape(-1), point_a.reshape(-1, 3),
-                    point_b.reshape(-1, 3))
+    code, row = _checked_capsule_kernel(p[0], p[1], r[0], p[2], p[3], r[1], distance.reshape(-1),
+                                        point_a.reshape(-1, 3), point_b.reshape(-1, 3))
+    if code:
+        raise _refusal(code, row, [p[0], p[1], p[2], p[3], r[0], r[1]], batch)
     return distance, point_a, point_b
 
 
@@ -175,5 +226,10 @@ def capsule_distance(a0, a1, ra, b0, b1, rb) -> tuple[np.ndarray, np.ndarray, np
         (negative when the capsules overlap), shape (...); and the closest points of the two
         axis segments, shape (..., 3). Parallel, antiparallel, collinear, zero-length and
         crossing segments are all handled without NaN.
+
+    Raises:
+        ValueError: naming the argument and index, for a NaN or infinite coordinate or radius, a
+            negative radius, or a magnitude beyond ``MAX_ABS_M`` (1e75 m, where squares of
+            lengths would overflow): fail closed, never a NaN distance.
     """
     return _run(a0, a1, ra, b0, b1, rb)

@@ -3,7 +3,7 @@
 Defaults: two links of 0.30 m. The paper does not give its link lengths; the JACO's shoulder-
 elbow and elbow-wrist distances are of that order, and with L1 = L2 = 0.30 m the Fig. 9 start
 (-0.2, 0.03) m lies mid-workspace (r = 0.202 m, elbow at 140.6 deg) between the joint-2 inner
-circle (r = 0.161 m at theta2 = 2.6 rad) and the extended-reach circle (0.57 m), as the figure
+circle (r = 0.160 m at theta2 = 2.6 rad) and the extended-reach circle (0.57 m), as the figure
 shows. Equal links put the inner-reach singularity (C) at the base itself, so, as the paper says,
 joint 2's limit (B) is the most restrictive inner circle, ahead of the base collision circle (A).
 The elbow works on one side (theta2 > 0), so theta2 = 0 (arm stretched, a singularity) is the

@@ -19,6 +19,13 @@ runs they are refused (Abort first), and after an Abort Start next refuses to re
 aborted trial silently (Repeat restarts it, Skip logs it as not finished with a reason).
 Finished and skipped trials go to the ``LogStore`` at once (durable, resumable); ``plan.json``
 (the plan and the pre-declared analysis) is written before the first trial.
+retries a trial that cannot be written every ``RETRY_WRITE_S`` and shows it to the operator as an
+error until it is.
+
+Access (issue 22): both servers refuse viser's share tunnel and check every value a browser
+sends (``cobotsafety.app.access.ServerGuard``); the operator token has 128 bits, is compared in
+constant time, and each connection waits longer after each wrong one (``TokenGate``).
+Pseudonyms are checked before anything starts (``cobotsafety.trial.pseudonyms``).
 
 The trial, and with it the colour task, starts at the participant's first motion after the
 operator's Start: no colour word is shown before it. The scene and the course are
@@ -29,7 +36,6 @@ only obstacles.
 from __future__ import annotations
 
 import logging
-import secrets
 import threading
 import time
 from dataclasses import dataclass
@@ -38,12 +44,15 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from cobotsafety.app.access import ServerGuard, TokenGate, Verdict, check_bindable
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
 from cobotsafety.app.scenes import make_scene
+from cobotsafety.errors import CobotSafetyError
 from cobotsafety.trial.colour_task import COLOURS, VERDICTS
 from cobotsafety.trial.course import Course
 from cobotsafety.trial.log_store import LogStore
 from cobotsafety.trial.plan import PlannedTrial, session_plan, write_plan
+from cobotsafety.trial.pseudonyms import check_pseudonyms
 from cobotsafety.trial.session import TrialRun
 from cobotsafety.trial.trial_scene import prepare_trial_robot, trial_course
 
@@ -53,6 +62,11 @@ TOUCH_FLASH_S = 0.8
 """How long a touched triangle stays highlighted and the touch message shows [s]."""
 OBSTACLE_RGB = (200, 40, 40)
 TOUCHED_RGB = (255, 150, 0)
+DEFAULT_PORT = 8090
+"""The participant view's port (the operator's is the next one); the demo's is 8080."""
+RETRY_WRITE_S = 5.0
+"""How often a finished trial that could not be written is tried again [s]."""
+
 ANSWER_MODES = ("aloud", "buttons")
 MAX_REASON_CHARS = 200
 
@@ -128,10 +142,12 @@ def render_mirror(view, dim: int, snapshot, data: dict) -> None:
 
 class TrialServer:
     def __init__(self, out: Path, participants: list[str], seed: int = 0, host: str = "127.0.0.1",
-                 port: int = 8080, course: Course | None = None, robot: str = "planar",
+                 port: int = DEFAULT_PORT, course: Course | None = None, robot: str = "planar",
                  operator_port: int | None = None, answers: str = "aloud", device=None):
         if answers not in ANSWER_MODES:
             raise ValueError(f"answers must be one of {ANSWER_MODES}, got {answers!r}")
+        check_pseudonyms(participants)
+        check_bindable(host)
         self.store = LogStore(out)
         self.seed = seed
         self.answers = answers
@@ -139,10 +155,16 @@ class TrialServer:
         self.scene_kind = "planar" if robot == "planar" else "arm"
         self.course = course or trial_course(self.scene_kind)
         write_plan(out, self.plan, seed, answers=answers, scene=self.scene_kind, robot=robot)
-        self.token = secrets.token_hex(4)
+        self.gate = TokenGate(what="operator token")
+        self.token = self.gate.token
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.operator_server = viser.ViserServer(host=host, port=operator_port or self.server.get_port() + 1,
                                                  verbose=False)
+        self.guard = ServerGuard(self.server)
+        self.operator_guard = ServerGuard(self.operator_server, may_change=self.gate.is_authorised)
+        self._unwritten: list[tuple[PlannedTrial, TrialRun, str | None]] = []
+        self._retry_write_s = 0.0
+        self._write_error = ""
         self.scene = make_scene(self.server, robot)
         self.teleop = self.scene.robot
         prepare_trial_robot(self.teleop, self.scene_kind)
@@ -187,6 +209,10 @@ class TrialServer:
         def _(client: viser.ClientHandle) -> None:
             self._offer_operator_login(client)
 
+        @self.operator_server.on_client_disconnect
+        def _(client: viser.ClientHandle) -> None:
+            self.gate.forget(client.client_id)
+
     @property
     def target_nodes(self) -> list:
         return self.course_nodes.targets
@@ -219,22 +245,22 @@ class TrialServer:
             self.answer_buttons.append(button)
 
     def _offer_operator_login(self, client: viser.ClientHandle) -> None:
+        self.operator_guard.protect_client(client)  # before its controls exist
         with client.gui.add_folder("Operator login") as folder:
             token = client.gui.add_text("Token", initial_value="", hint="the token printed when the trial started")
             feedback = client.gui.add_markdown("Enter the operator token.")
 
         @token.on_update
         def _(_event) -> None:
-            entered = token.value.strip()
-            if not entered:
-                return
-            if entered == self.token:
+            verdict = self.gate.check(client.client_id, token.value)
+            if verdict is Verdict.ACCEPTED:
                 folder.remove()  # the token leaves the page once accepted
                 self._make_operator_panel(client)
-            elif len(entered) >= len(self.token):
+            elif verdict in (Verdict.WRONG, Verdict.WAIT):
                 token.value = ""
-                feedback.content = "**Wrong token.** Try again."
-                logger.warning("operator login refused (client %s)", client.client_id)
+                wait_s = self.gate.wait_s(client.client_id)
+                feedback.content = (f"**Wrong token.** Try again in {wait_s:.0f} s." if verdict is Verdict.WRONG
+                                    else f"**Too soon.** Wait {wait_s:.0f} s, then try again.")
 
     def _make_operator_panel(self, client: viser.ClientHandle) -> None:
         gui = client.gui
@@ -271,7 +297,8 @@ class TrialServer:
         for t in self.plan:
             strike = "~~" if (t.participant, t.attention, t.condition) in done else ""
             rows.append(f"- {strike}{t.participant} #{t.order} {t.attention} / {t.condition}{strike}")
-        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n**{self.status}**\n\n" + "\n".join(rows)
+        unwritten = f"**{self._write_error}**\n\n" if self._unwritten else ""  # shown until written
+        return f"Seed {self.seed}. Log: `{self.store.path}`\n\n{unwritten}**{self.status}**\n\n" + "\n".join(rows)
 
     def _operator_progress(self) -> str:
         current = self.current
@@ -452,10 +479,22 @@ class TrialServer:
     def _log_finished(self) -> None:
         with self._lock:
             finished, self._finished = self._finished, []
+        if self._unwritten and time.monotonic() >= self._retry_write_s:
+            finished, self._unwritten = self._unwritten + finished, []
         for trial, run, skipped in finished:
             record = run.record(trial.participant, trial.condition, trial.order, run.seed, skip_reason=skipped)
             record["answers"] = self.answers
-            self.store.append(record, np.array(run.trajectory).reshape(-1, 4))
+            try:
+                self.store.append(record, np.array(run.trajectory).reshape(-1, 4))
+            except (OSError, CobotSafetyError, ValueError) as error:  # kept in memory, retried, shown
+                self._unwritten.append((trial, run, skipped))
+                self._retry_write_s = time.monotonic() + RETRY_WRITE_S
+                message = (f"NOT LOGGED: {self._describe(trial)} could not be written to {self.store.directory} "
+                           f"({error}); kept in memory and retried every {RETRY_WRITE_S:.0f} s")
+                if message != self._write_error:  # logged once, not at every retry
+                    logger.error("%s", message)
+                self._write_error = message
+                continue
             if skipped is None:
                 self.status = f"Finished: {self._describe(trial)} (logged). Start the next trial."
                 self._participant_idle("**Trial complete. Thank you! Waiting for the operator.**")
