@@ -11,6 +11,7 @@ from cobotsafety.ports import free_local_port
 @pytest.fixture(scope="module")
 def app():
     demo = DemoApp(DemoConfig(scene="arm", port=free_local_port()))  # threads not started: driven by hand
+    demo.ensure_replay()
     yield demo
     demo.server.stop()
 
@@ -25,7 +26,7 @@ def separation(app, human) -> float:
 
 def test_replayed_human_reaches_the_controller(app):
     app.replay.playing = False
-    app.replay.seek(app.replay.duration_s / 2)
+    app.replay.seek(5.0)  # exp1: the co-worker reaches towards the table
     app.render_once()
     app.loop.step_once()
     human = app.replay.capsules()
