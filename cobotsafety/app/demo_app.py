@@ -114,13 +114,19 @@ FIG9_ARRIVED_M = 0.005
 
 
 def supported_robots() -> tuple[str, ...]:
-    """``planar`` plus the arm names of ``cobotsafety.arm`` once its ``ArmTeleop`` exists."""
+    """``planar`` plus the arm names of ``cobotsafety.arm`` when its ``ArmTeleop`` can be loaded.
+
+    Looked up without importing it (that would load numba and pinocchio, seconds of the planar
+    demo's start-up): the modules are found, their names read from ``arm.robots``.
+    """
+    from importlib.util import find_spec  # noqa: PLC0415
+
     try:
-        from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415
-        from cobotsafety.arm.teleop import ArmTeleop  # noqa: F401, PLC0415 - the 3D scene needs it
+        available = all(find_spec(name) is not None for name in ("pinocchio", "numba", "cobotsafety.arm.teleop"))
+        from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415 - numpy only
     except ImportError:
         return (PLANAR,)
-    return (PLANAR, *(name for name in ROBOTS if name != PLANAR))
+    return (PLANAR, *(name for name in ROBOTS if name != PLANAR)) if available else (PLANAR,)
 
 
 class DemoApp:

@@ -23,6 +23,7 @@ import viser
 from cobotsafety.app import draw
 from cobotsafety.app.camera import set_initial_view
 from cobotsafety.app.control_loop import LoopSnapshot
+from cobotsafety.app.lighting import light_scene
 from cobotsafety.app.limit_words import ZONE, describe, in_play, vocabulary_of
 from cobotsafety.app.scene_limits import FLOOR_BELOW_TABLE_M, LimitMarks, table_height_m
 from cobotsafety.arm.zones import BoxZone, CapsuleZone, HalfSpaceZone
@@ -149,6 +150,7 @@ class ArmView:
         self.server, self.teleop = server, teleop
         state = teleop.state
         set_initial_view(server, CAMERA_POSITION_M, CAMERA_LOOK_AT_M)
+        light_scene(server)
         floor_z = table_height_m(getattr(teleop, "constraints", ())) - FLOOR_BELOW_TABLE_M
         self.grid = server.scene.add_grid(f"{ROOT}/grid", width=4.0, height=4.0, cell_size=0.25, section_size=1.0,
                                           position=(0.5, 0.0, floor_z))

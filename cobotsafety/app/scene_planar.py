@@ -18,6 +18,7 @@ import viser
 from cobotsafety.app import draw
 from cobotsafety.app.camera import lock_orbit, set_initial_view, unlock_orbit
 from cobotsafety.app.control_loop import LoopSnapshot
+from cobotsafety.app.lighting import light_scene
 from cobotsafety.app.limit_words import RobotVocabulary, describe, in_play
 from cobotsafety.planar.limitations import (
     CircleKeepIn,
@@ -133,6 +134,7 @@ class PlanarView:
         scene = server.scene
         set_initial_view(server, CAMERA_POSITION_M, CAMERA_LOOK_AT_M)
         lock_orbit(server)
+        light_scene(server)
         self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
                                    position=(0.0, 0.0, -0.002))
         arm = teleop.scene.arm
