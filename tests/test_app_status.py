@@ -33,8 +33,11 @@ def facts(rep, **kw):
      "Giving way: the person's right forearm near the elbow."),
     (report(("human forearm_right (panda_joint4)",)), {"human_present": True},  # held away, not moving
      "Giving way: the person's right forearm near the elbow."),
-    (report(("panda_joint4 upper", "velocity 9", "table (panda_joint7)"), v_desired=(0.1, 0.0, 0.0)), {},
+    (report(("panda_joint4 upper", "velocity 9", "table (panda_joint7)"), v_desired=(0.1, 0.0, 0.0),
+            v_executed=(0.0, 0.05, 0.0)), {},
      "Sliding along joint 4 at its upper end; joint 3 at its speed limit (+1 more)."),
+    (report(("B joint 2 upper", "F triangle"), v_desired=(0.1, 0.0)), {"vocabulary": RobotVocabulary(planar=True)},
+     "Blocked by B: joint 2 at its upper end; F: the triangle: no way along them."),  # Fig. 9 a, in the V
     (report(("E extended reach",)), {"dim": 2, "vocabulary": RobotVocabulary(planar=True)},  # released on E
      "Waiting: drag the arrow handle to move the arm (seen from above)."),
     (report(("B joint 2 lower",), v_desired=(0.1, 0.0), stopped=True), {"vocabulary": RobotVocabulary(planar=True)},

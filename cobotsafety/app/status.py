@@ -75,6 +75,8 @@ def situation(facts: StatusFacts) -> str:
         return "Limits pull against each other: the arm gives way to them as little as it can."
     if human:
         return f"Giving way: {human[0].words}."
+    if others and driven and not moving:
+        return f"Blocked by {_listed(others)}: no way along them."
     if others and driven:
         return f"Sliding along {_listed(others)}."
     if driven:
