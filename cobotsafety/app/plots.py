@@ -7,9 +7,9 @@ have fixed, labelled y ranges (an empty chart does not read 0-100, small speeds 
 
 The distance chart draws the samples as dots, not a line: uPlot joins the points on either side
 of a missing value (a NaN in viser's float arrays is not one of uPlot's gaps), so a line
-bridged the time nobody was in view. Dots leave that time empty. It starts empty (no dot
-before anyone is seen) and its y range grows in steps to hold every distance shown
-(``distance_range_mm``): nothing is clipped at 1 m.
+bridged the time nobody was in view. Dots leave that time empty. It starts with no dot (one
+row of NaN: an empty array froze viser's x range) and its y range grows in steps to hold every
+distance shown (``distance_range_mm``): nothing is clipped at 1 m.
 """
 
 from __future__ import annotations
@@ -83,14 +83,16 @@ class Plots:
     """Three uPlot charts in the current GUI container."""
 
     def __init__(self, server: viser.ViserServer, rate_hz: float, distance_title: str = "Minimum distance"):
-        empty = np.zeros(0)
+        empty = np.zeros(1)  # one row, not none: viser's chart keeps its x range relative to the data's
+        nobody = np.full(1, np.nan)  # extent, which an empty array makes NaN for good (the x axis froze)
         line = lambda label, colour, **kw: uplot.Series(label=label, stroke=colour, **{"width": 2, **kw})  # noqa: E731
         dots = uplot.Series(label="distance [mm]", stroke="rgba(0,0,0,0)", width=0.5,
                             points=uplot.Series_Points(show=True, size=5.0, width=0.0, fill=DISTANCE_RGB,
                                                        stroke=DISTANCE_RGB))
         self.distance_range_mm = DISTANCE_RANGE_MM
+        self._server, self._distance_title, self._dots = server, distance_title, dots
         self.distance = server.gui.add_uplot(
-            (empty, empty), (uplot.Series(label="t [s]"), dots),
+            (empty, nobody), (uplot.Series(label="t [s]"), dots),
             title=distance_title, aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(DISTANCE_RANGE_MM), axes=_axes("mm"))
         self.speed = server.gui.add_uplot(
             (empty, empty, empty),
@@ -102,19 +104,30 @@ class Plots:
             title="Control-loop rate", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales((0.0, 1.25 * rate_hz)), axes=_axes("Hz"))
 
     def push_distance(self, history: PlotHistory) -> None:
-        """The distance samples so far (rows without a distance stay empty)."""
+        """The distance samples so far; rows without a distance are NaN (drawn as nothing)."""
         t = history.array("t_s")
-        distance_mm = history.array("min_distance_m") * 1e3
-        present = np.isfinite(distance_mm)
-        if not present.any():
-            if self.distance.data[0].size:
-                self.distance.data = (np.zeros(0), np.zeros(0))
+        if t.size < 2:
             return
+        distance_mm = history.array("min_distance_m") * 1e3
         y_range = distance_range_mm(distance_mm)
-        if y_range != self.distance_range_mm:
-            self.distance.scales = _scales(y_range)
-            self.distance_range_mm = y_range
+        if y_range != self.distance_range_mm:  # a new chart in the old one's place (see _regrow)
+            self._regrow(y_range, (t, distance_mm))
+            return
         self.distance.data = (t, distance_mm)
+
+    def _regrow(self, y_range: tuple[float, float], data: tuple[np.ndarray, np.ndarray]) -> None:
+        """Replace the distance chart by one with ``y_range``, at the same place in the panel.
+
+        Assigning new ``scales`` to a live chart makes viser's client rebuild it with a broken
+        x range (frozen at a fifth of the data's, read back in the browser), so the chart is
+        made anew; it happens only when the range grows or shrinks a step.
+        """
+        old = self.distance
+        self.distance = self._server.gui.add_uplot(
+            data, (uplot.Series(label="t [s]"), self._dots), title=self._distance_title, aspect=2.0,
+            padding=(18, 14, 0, 0), scales=_scales(y_range), axes=_axes("mm"), order=old.order, visible=old.visible)
+        old.remove()
+        self.distance_range_mm = y_range
 
     def push(self, history: PlotHistory) -> None:
         """All three charts."""

@@ -25,8 +25,9 @@ import viser
 from cobotsafety.app import draw
 from cobotsafety.app.limit_words import JOINT_ACCELERATION, JOINT_POSITION, JOINT_SPEED, REACH, TABLE, Limit
 
-ARC_RADIUS_M = 0.09
-RING_RADIUS_M = 0.065
+ARC_RADIUS_M = 0.17
+"""Joint arcs stand out of the link meshes and capsules (~0.08 m across the arm's axis)."""
+RING_RADIUS_M = 0.13
 END_ARC_RAD = 0.35
 """The thick part of a joint arc: this much of the range before the binding end [rad]."""
 TABLE_SIZE_M = ((-0.45, 0.6), (-0.6, 0.6))
@@ -122,18 +123,18 @@ class LimitMarks:
 
         tag = joint_name.replace("/", "_")
         self.nodes[f"{joint_name} arc"] = add(f"{parent}/limit_{tag}_arc", arc(lower, upper), draw.HIGHLIGHT,
-                                              thickness=0.003, visible=False)
+                                              thickness=0.008, visible=False)
         end = min(END_ARC_RAD, upper - lower)
         self.nodes[f"{joint_name} lower"] = add(f"{parent}/limit_{tag}_lower", arc(lower, lower + end), draw.HIGHLIGHT,
-                                                thickness=0.012, visible=False)
+                                                thickness=0.016, visible=False)
         self.nodes[f"{joint_name} upper"] = add(f"{parent}/limit_{tag}_upper", arc(upper - end, upper), draw.HIGHLIGHT,
-                                                thickness=0.012, visible=False)
+                                                thickness=0.016, visible=False)
         self.nodes[f"{joint_name} needle"] = add(
             f"{child}/limit_{tag}_needle", np.array([[np.zeros(3), zero_local * ARC_RADIUS_M * 1.15]]), draw.HIGHLIGHT,
-            thickness=0.005, visible=False)
+            thickness=0.008, visible=False)
         ring = draw.polyline_segments(draw.arc_points(centre, axis, zero, 0.0, 2 * np.pi, RING_RADIUS_M, 40)[:-1])
         self.nodes[f"{joint_name} ring"] = add(f"{parent}/limit_{tag}_ring", ring, draw.HIGHLIGHT,
-                                               thickness=0.008, visible=False)
+                                               thickness=0.012, visible=False)
         return True
 
     def _reach_node(self, side: str) -> bool:
