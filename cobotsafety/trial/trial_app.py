@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from cobotsafety.app.camera import lock_orbit
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
+from cobotsafety.app.gizmo import add_gizmo
 from cobotsafety.app.scenes import make_scene
 from cobotsafety.trial.colour_task import COLOURS
 from cobotsafety.trial.course import Course, arm_course, planar_course
@@ -73,9 +75,8 @@ class TrialServer:
         self._errors_seen = 0
         self._draw_course()
         self._make_participant_gui()
-        self.gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.15, line_width=4.0, active_axes=self.scene.gizmo_axes, disable_rotations=True,
-            depth_test=False, position=tuple(self.teleop.p_base_ee_m))
+        self.gizmo = add_gizmo(self.server, self.scene.gizmo_axes, self.teleop.p_base_ee_m)  # the demo's handle
+        lock_orbit(self.server)  # the view is part of the task (issue 25 item 5)
 
         @self.gizmo.on_update
         def _(event: viser.TransformControlsEvent) -> None:
@@ -123,7 +124,7 @@ class TrialServer:
         self.word = gui.add_html("")
         self.answer_buttons = []
         for colour in COLOURS:
-            button = gui.add_button(colour.capitalize(), visible=False)
+            button = gui.add_button(colour.capitalize(), visible=False, color="gray")  # no ink colour of its own
 
             @button.on_click
             def _(_event, colour=colour) -> None:
@@ -286,7 +287,8 @@ class TrialServer:
                 self.progress.content = text
             if run.colour is not None and run.colour.current is not None:
                 s = run.colour.current
-                html = f'<div style="font-size:48px;font-weight:bold;color:{INK_RGB[s.ink]}">{s.word.upper()}</div>'
+                html = (f'<div style="font-size:48px;font-weight:bold;padding:0 0.4em;'
+                        f'color:{INK_RGB[s.ink]}">{s.word.upper()}</div>')
                 if html != self.word.content:
                     self.word.content = html
         self._refresh_plans()
