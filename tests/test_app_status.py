@@ -37,7 +37,7 @@ def facts(rep, **kw):
             v_executed=(0.0, 0.05, 0.0)), {},
      "Sliding along joint 4 at its upper end; joint 3 at its speed limit (+1 more)."),
     (report(("B joint 2 upper", "F triangle"), v_desired=(0.1, 0.0)), {"vocabulary": RobotVocabulary(planar=True)},
-     "Blocked by B: joint 2 at its upper end; F: the triangle: no way along them."),  # Fig. 9 a, in the V
+     "Held at B: joint 2 at its upper end; F: the triangle: as close to your drag as it allows."),  # Fig. 9 a, in the V
     (report(("E extended reach",)), {"dim": 2, "vocabulary": RobotVocabulary(planar=True)},  # released on E
      "Waiting: drag the arrow handle to move the arm (seen from above)."),
     (report(("B joint 2 lower",), v_desired=(0.1, 0.0), stopped=True), {"vocabulary": RobotVocabulary(planar=True)},

@@ -227,7 +227,7 @@ def test_status_changes_in_words_and_the_buttons_stay_put(browser, app):
     for scene, target, mode, words in (
             (PLANAR_SCENES[0], (0.3, 0.03, 0.0), "anticipative", "Sliding along B: joint 2 at its upper end"),
             (PLANAR_SCENES[0], (0.3, 0.03, 0.0), "stop", "Stopped: B: joint 2 at its upper end"),
-            (PLANAR_SCENES[1], (*FIG9_TARGET_M, 0.0), "anticipative", "Blocked by B: joint 2 at its upper end; F: the")):
+            (PLANAR_SCENES[1], (*FIG9_TARGET_M, 0.0), "anticipative", "Held at B: joint 2 at its upper end; F: the")):
         if app._planar_label != scene:
             app.switch_scene("planar", scene)
         app.loop.reset()

@@ -76,7 +76,7 @@ def situation(facts: StatusFacts) -> str:
     if human:
         return f"Giving way: {human[0].words}."
     if others and driven and not moving:
-        return f"Blocked by {_listed(others)}: no way along them."
+        return f"Held at {_listed(others)}: as close to your drag as it allows."
     if others and driven:
         return f"Sliding along {_listed(others)}."
     if driven:
