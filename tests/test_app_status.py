@@ -62,7 +62,7 @@ def test_lines_name_limits_distance_mode_and_position_without_internal_names():
     text = " ".join(lines)
     assert "Limits met: <b>the person&#x27;s right forearm near the shoulder; joint 3 at its speed limit</b>" in text
     assert "Person: <b>223 mm</b> from the arm (aim: &ge; 250 mm)" in text
-    assert "Mode <b>anticipative</b> · SSM <b>on</b> · loop <b>998 Hz</b>" in text
+    assert "Mode <b>anticipative</b> · SSM <b>on</b> · loop <b>1000 Hz</b>" in text  # 998.4 to the 10 Hz step
     assert "EE x=483.1 y=-0.4 z=413.2 mm" in text
     for internal in ("velocity 9", "forearm_right", "panda_joint", "23771", "contradicting"):
         assert internal not in text

@@ -21,6 +21,7 @@ does not wait for it at all.
 from __future__ import annotations
 
 import gc
+import html
 import logging
 import sys
 import threading
@@ -28,6 +29,7 @@ import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import viser
@@ -132,7 +134,10 @@ def supported_robots() -> tuple[str, ...]:
 class DemoApp:
     """The running demo. ``start()`` then ``url``; ``stop()`` shuts everything down."""
 
-    def __init__(self, config: DemoConfig = DemoConfig()):
+    def __init__(self, config: DemoConfig = DemoConfig(), announce: Callable[[str], None] | None = None):
+        """``announce(url)`` is called as soon as the server listens, before the robot and its
+        scene are built: a tab opened then loads the page while the server builds the rest
+        (the scene streams in as it is made), instead of after it."""
         if config.scene not in ("planar", "arm"):
             raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
         robot_name = PLANAR if config.scene == "planar" else (config.robot or "panda")
@@ -152,12 +157,28 @@ class DemoApp:
             self._pending = dict(BUNDLED_RECORDINGS)[DEFAULT_RECORDING]
         self.replay.playing = False  # the robot waits at home until the visitor plays the human
         self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
+        self._first_client = threading.Event()
+        self.server.on_client_connect(lambda _client: self._first_client.set())
         self.server.gui.configure_theme(control_width="large")
+        try:
+            self._build(robot_name, announce)
+        except BaseException:
+            self.server.stop()
+            raise
+
+    def _build(self, robot_name: str, announce: Callable[[str], None] | None) -> None:
+        """The panel first (a tab opened on the announced URL shows it and waits), then the
+        robot and its scene, the loop, the human, the zone editor, the charts, the gizmo."""
+        config = self.config
+        dim = 2 if robot_name == PLANAR else 3
+        self.panel = make_panel(self.server, supported_robots(), robot_name, dim, tuple(self.recordings),
+                                GizmoSettings(), ssm_available=dim == 3)
+        self.panel.status.content = status_html((f"<b>Loading the {html.escape(robot_name)} scene...</b>",))
+        if announce is not None:
+            announce(self.url)
         self.scene = make_scene(self.server, robot_name)
         self._planar_label = PLANAR_SCENES[0]
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY))
-        self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
-                                self.loop.gizmo, ssm_available=self.scene.dim == 3)
         if self._pending is not None:
             self.panel.recording.value = self._pending
         self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
@@ -174,7 +195,6 @@ class DemoApp:
         self._render_thread: threading.Thread | None = None
         self._preload_thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._first_client = threading.Event()
         self._switching = threading.RLock()
         self.frames = 0
         self.last_gizmo_update_s = 0.0
@@ -208,10 +228,6 @@ class DemoApp:
 
     def _wire(self) -> None:
         panel, loop = self.panel, self.loop
-
-        @self.server.on_client_connect
-        def _(_client: viser.ClientHandle) -> None:
-            self._first_client.set()
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
@@ -534,9 +550,10 @@ class DemoApp:
                     if lines != self.last_status_lines:
                         self.panel.status.content = status_html(lines)
                         self.last_status_lines = lines
-                    self.plots.push_distance(self.history)
+                    if scene.dim == 3:  # the planar scene has no person: its distance chart is hidden
+                        self.plots.push_distance(self.history)
                     if self.frames % (STATUS_EVERY_FRAMES * CHARTS_EVERY_STATUS) == 0:
-                        self.plots.push(self.history)
+                        self.plots.push(self.history, distance=scene.dim == 3)
                     if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere
                         self.panel.seek_s.value = round(min(self.replay.time_s, self.panel.seek_s.max), 2)
                 if self._dragging_client is None:  # nobody holds it: the gizmo rides with the end-effector

@@ -129,9 +129,10 @@ class Plots:
         old.remove()
         self.distance_range_mm = y_range
 
-    def push(self, history: PlotHistory) -> None:
-        """All three charts."""
-        self.push_distance(history)
+    def push(self, history: PlotHistory, distance: bool = True) -> None:
+        """The three charts (``distance=False``: the speed and rate charts only)."""
+        if distance:
+            self.push_distance(history)
         t = history.array("t_s")
         if t.size < 2:
             return

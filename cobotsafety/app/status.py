@@ -19,6 +19,8 @@ from cobotsafety.app.limit_words import HUMAN, RobotVocabulary, describe, in_pla
 
 STATUS_LINES = 5
 LINE_HEIGHT_EM = 1.55
+RATE_STEP_HZ = 10.0
+"""The loop rate is shown to this step [Hz] (its last digits changed at every refresh)."""
 SHOWN_LIMITS = 2
 """Limits named in the sentence and the "limits met" line; more are counted ("+2 more")."""
 
@@ -109,7 +111,8 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
         kept = f" (aim: &ge; {facts.critical_m * 1e3:.0f} mm)" if facts.critical_m is not None else ""
         person = f"Person: <b>{facts.distance_m * 1e3:.0f} mm</b> from the arm{kept}"
     monitoring = "" if facts.ssm is None else f" · SSM <b>{'on' if facts.ssm else 'off'}</b>"
-    mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{facts.rate_hz:.0f} Hz</b>"
+    rate = round(facts.rate_hz / RATE_STEP_HZ) * RATE_STEP_HZ  # the block is re-sent only when it changes
+    mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{rate:.0f} Hz</b>"
     x, y, z = (float(c) * 1e3 for c in facts.p_base_ee_m)
     where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm"
     return (f"<b>{e(situation(facts))}</b>", met, person, mode, where)

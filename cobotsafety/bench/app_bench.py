@@ -10,7 +10,9 @@ from the WebGL canvas, not by a screenshot, which under software WebGL took seco
 ``settled_s`` (the canvas unchanged for a second: the meshes are in). Beside them the server's
 side: ``url_s`` (the command printed its URL) and the first client's initial scene
 (``initial_messages``, ``initial_kB``: what a ``WireProbe`` received, in a later run of the same
-command, until 1.5 s brought less than 30 kB; the last 1.5 s of the idle stream included).
+command, until the gizmo (made last) had come and 1.5 s brought less than 30 kB; the last
+1.5 s of the idle stream included). The command prints its URL as soon as the server listens
+(``DemoApp(announce=...)``): the page loads while the server builds the robot's scene.
 
 The wire figures come in four phases of ``--seconds`` each: ``idle`` (replay paused, no input)
 and ``moving`` (replay playing, the gizmo pulled round a 10 cm circle at 20 Hz), each with 1 and
@@ -163,9 +165,10 @@ def _startup(playwright, chromium: str, port: int, scene: str, tabs: int) -> dic
         probe = WireProbe(line.split("open ", 1)[1].strip()).start()
         quiet = threading.Event()
         last = -1
-        while not quiet.wait(1.5):  # the initial scene: until the stream falls to the idle trickle
-            counts = probe.counts()  # (~15 kB per 1.5 s of status, charts and poses: counted too)
-            if counts["bytes"] - last < 30_000 and last >= 0:
+        while not quiet.wait(1.5):  # the initial scene: the gizmo (made last) in, then the stream
+            counts = probe.counts()  # falls to the idle trickle (~15 kB per 1.5 s, counted too)
+            gizmo = counts["types"].get("TransformControlsMessage", 0) > 0
+            if gizmo and counts["bytes"] - last < 30_000 and last >= 0:
                 break
             last = counts["bytes"]
         result["initial_messages"] = int(sum(counts["types"].values()))

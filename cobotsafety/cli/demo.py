@@ -24,8 +24,8 @@ def run(args: argparse.Namespace) -> int:
 
     scene = args.scene or ("arm" if args.robot not in (None, "planar") else "planar")
     app = DemoApp(DemoConfig(scene=scene, robot=args.robot, replay=args.replay, host=args.host,
-                             port=args.port, rate_hz=args.rate)).start()
-    print(f"cobotsafety demo: open {app.url}", flush=True)
+                             port=args.port, rate_hz=args.rate),
+                  announce=lambda url: print(f"cobotsafety demo: open {url}", flush=True)).start()
     try:
         while True:
             time.sleep(1.0)
