@@ -26,7 +26,7 @@ def facts(rep, **kw):
 
 
 @pytest.mark.parametrize("rep, kw, sentence", [
-    (None, {}, "The arm holds its pose: drag the arrow handle, or press Play under Replay to bring a person in."),
+    (None, {}, "Holding its pose: drag the arrow handle, or press Play under Replay to bring a person in."),
     (report(), {"replay_playing": True}, "Nobody in view of the scanner: the arm holds its pose."),
     (report(), {"human_present": True, "distance_m": 0.8}, "A person is in view; the arm holds its pose."),
     (report(("human forearm_right (panda_joint4)",), v_executed=(0.0, -0.1, 0.0)), {"human_present": True},
@@ -39,15 +39,15 @@ def facts(rep, **kw):
     (report(("B joint 2 upper", "F triangle"), v_desired=(0.1, 0.0)), {"vocabulary": RobotVocabulary(planar=True)},
      "Held at B: joint 2 at its upper end; F: the triangle: as close to your drag as it allows."),  # Fig. 9 a, in the V
     (report(("E extended reach",)), {"dim": 2, "vocabulary": RobotVocabulary(planar=True)},  # released on E
-     "Waiting: drag the arrow handle to move the arm (seen from above)."),
+     "Waiting: drag the arrow handle to move the arm."),
     (report(("B joint 2 lower",), v_desired=(0.1, 0.0), stopped=True), {"vocabulary": RobotVocabulary(planar=True)},
      "Stopped: B: joint 2 at its lower end."),
     (report(v_desired=(0.1, 0.0, 0.0)), {}, "Following your drag: nothing in the way."),
     (report(v_executed=(0.05, 0.0, 0.0)), {}, "Going back to where you left it."),
     (report(reason="retreats contradict", contradictions=23771), {},
-     "Limits pull against each other: the arm gives way to them as little as it can."),
+     "Limits conflict: the arm yields to each as little as it can."),
     (report(("velocity 9",), v_desired=(0.1, 0.0, 0.0)), {"method": "off"},
-     "Filter off: the arm follows the command and ignores every limit but its joints' ends."),
+     "Filter off: the arm follows the drag; only its joints' ends hold it."),
     (report(), {"replay_state": "exp1: reading it"}, "The arm holds its pose (exp1: reading it)."),
 ])
 def test_situation_says_what_happens_in_words(rep, kw, sentence):
@@ -75,11 +75,14 @@ def test_planar_and_stale_lines():
     assert stale[2] == "Person: <b>sensor stale</b>, laser 0.4 s old &lt;b&gt;"
 
 
-def test_html_block_has_fixed_height_and_one_row_per_line_whatever_the_text():
+def test_html_block_has_fixed_height_and_fixed_rows_whatever_the_text():
     short = status_html(("one",))
     long = status_html(tuple(f"line {i} " + "word " * 60 for i in range(9)))
     for block in (short, long):
         assert block.count('class="cobotsafety-status-line"') == STATUS_LINES
         assert re.search(r'class="cobotsafety-status" style="height:[0-9.]+em;overflow:hidden', block)
+        rows = re.findall(r'class="cobotsafety-status-line"[^>]*style="([^"]*)"', block)
+        assert "-webkit-line-clamp:2" in rows[0] and "height:3.1em" in rows[0]  # the sentence: two rows at most
+        assert all("white-space:nowrap" in row and "height:1.55em" in row for row in rows[1:])
     assert re.search(r"height:([0-9.]+)em", short).group(1) == re.search(r"height:([0-9.]+)em", long).group(1)
     assert 'title="Giving way: the person&#x27;s arm"' in status_html(("<b>Giving way: the person&#x27;s arm</b>",))

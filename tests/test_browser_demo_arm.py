@@ -96,7 +96,7 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
     the arm gives way; the status and the chart show the same number; the person leaves and
     returns: the chart leaves that time empty (not bridged), and its range holds every value."""
     page = open_page(browser, app)
-    page.get_by_text("press Play under Replay to bring a person in").wait_for()
+    page.get_by_text("or press Play under Replay").wait_for()
     assert [v for v in chart(page)["y"] if v is not None] == []  # no point before anyone appears
     page.get_by_text("Replay", exact=True).click()
     labels = dict(BUNDLED_RECORDINGS)

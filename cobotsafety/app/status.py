@@ -18,6 +18,8 @@ import numpy as np
 from cobotsafety.app.limit_words import HUMAN, RobotVocabulary, describe, in_play
 
 STATUS_LINES = 5
+SENTENCE_ROWS = 2
+"""The sentence may wrap once; every other line keeps to one row."""
 LINE_HEIGHT_EM = 1.55
 RATE_STEP_HZ = 10.0
 """The loop rate is shown to this step [Hz] (its last digits changed at every refresh)."""
@@ -69,12 +71,12 @@ def situation(facts: StatusFacts) -> str:
     driven = report is not None and _speed(report.v_desired_m_s) > 1e-3
     moving = report is not None and _speed(report.v_executed_m_s) > 1e-3
     if facts.method == "off":
-        return "Filter off: the arm follows the command and ignores every limit but its joints' ends."
+        return "Filter off: the arm follows the drag; only its joints' ends hold it."
     if report is not None and report.stopped:
         cause = _listed(limits) or (report.reason or "a limit in the way")
         return f"Stopped: {cause}."
     if report is not None and report.reason:
-        return "Limits pull against each other: the arm gives way to them as little as it can."
+        return "Limits conflict: the arm yields to each as little as it can."
     if human:
         return f"Giving way: {human[0].words}."
     if others and driven and not moving:
@@ -86,14 +88,14 @@ def situation(facts: StatusFacts) -> str:
     if moving:
         return "Going back to where you left it."
     if facts.dim == 2:
-        return "Waiting: drag the arrow handle to move the arm (seen from above)."
+        return "Waiting: drag the arrow handle to move the arm."
     if facts.human_present:
         return "A person is in view; the arm holds its pose."
     if facts.replay_state:
         return f"The arm holds its pose ({facts.replay_state})."
     if facts.replay_playing:
         return "Nobody in view of the scanner: the arm holds its pose."
-    return "The arm holds its pose: drag the arrow handle, or press Play under Replay to bring a person in."
+    return "Holding its pose: drag the arrow handle, or press Play under Replay to bring a person in."
 
 
 def status_lines(facts: StatusFacts) -> tuple[str, ...]:
@@ -119,14 +121,18 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
 
 
 def status_html(lines: tuple[str, ...]) -> str:
-    """The lines in a block of fixed height: one line each, cut with an ellipsis when too long."""
+    """The lines in a block of fixed height: the sentence on up to ``SENTENCE_ROWS`` rows, each
+    other line on one row; longer text is cut with an ellipsis (the whole line in its tooltip)."""
     rows = []
-    for line in (*lines, *("",) * STATUS_LINES)[:STATUS_LINES]:
+    for index, line in enumerate((*lines, *("",) * STATUS_LINES)[:STATUS_LINES]):
         tip = html.escape(html.unescape(line.replace("<b>", "").replace("</b>", "")), quote=True)
-        rows.append(f'<div class="cobotsafety-status-line" title="{tip}" style="white-space:nowrap;'
-                    f'overflow:hidden;text-overflow:ellipsis;height:{LINE_HEIGHT_EM}em">{line or "&nbsp;"}</div>')
-    height = STATUS_LINES * LINE_HEIGHT_EM
-    return (f'<div class="cobotsafety-status" style="height:{height}em;overflow:hidden;'
+        count = SENTENCE_ROWS if index == 0 else 1
+        fit = ("white-space:nowrap;text-overflow:ellipsis" if count == 1 else
+               f"display:-webkit-box;-webkit-box-orient:vertical;-webkit-line-clamp:{count}")
+        rows.append(f'<div class="cobotsafety-status-line" title="{tip}" style="overflow:hidden;{fit};'
+                    f'height:{count * LINE_HEIGHT_EM}em">{line or "&nbsp;"}</div>')
+    height = (STATUS_LINES - 1 + SENTENCE_ROWS) * LINE_HEIGHT_EM
+    return (f'<div class="cobotsafety-status" style="height:{height:.2f}em;overflow:hidden;'
             f'line-height:{LINE_HEIGHT_EM}em;font-size:0.875rem;padding:0 0.75em">{"".join(rows)}</div>')
 
 
