@@ -2,9 +2,12 @@
 
     python scripts/screenshots.py [--out docs/screenshots] [--chromium /usr/bin/chromium]
 
-Writes ``planar.png`` (paper 1's arm with its limitations, one highlighted), ``panda_human.png``
-(the panda with the replayed human playing) and ``trial.png`` (a participant's view of a
-divided-attention trial). Software WebGL is slow: each page gets time to draw.
+Writes ``planar.png`` (paper 1's arm sliding round joint 2's limit circle B, highlighted),
+``panda_human.png`` (the panda giving way to paper 2's co-worker, the replay playing),
+``panda_limit.png`` (the panda's elbow at its joint limit: the arc at the joint) and
+``trial.png`` (a participant's view of a divided-attention trial). viser's "Software WebGL
+rendering detected" notification is closed before each shot. Software WebGL is slow: each page
+gets time to draw.
 """
 
 from __future__ import annotations
@@ -23,7 +26,28 @@ VIEWPORT = {"width": 1400, "height": 900}
 
 def _settle(page, text: str, seconds: float) -> None:
     page.get_by_text(text).first.wait_for(timeout=120_000)
+    _close_toasts(page)
     time.sleep(seconds)
+
+
+def _close_toasts(page) -> None:
+    """Close viser's "Software WebGL rendering detected" notification (it covers the scene)."""
+    toast = page.locator(".mantine-Notification-root", has_text="Software WebGL rendering detected")
+    for _ in range(20):
+        if toast.count() == 0:
+            return
+        try:
+            toast.first.locator("button").first.click(timeout=5_000)
+        except Exception:  # noqa: BLE001 - it may close by itself meanwhile
+            pass
+        time.sleep(0.3)
+
+
+def _shoot(page, path: Path, wait_for: str | None = None) -> None:
+    if wait_for is not None:
+        page.get_by_text(wait_for).first.wait_for(timeout=120_000)
+    _close_toasts(page)
+    page.screenshot(path=str(path))
 
 
 def planar(context, out: Path) -> None:
@@ -35,9 +59,14 @@ def planar(context, out: Path) -> None:
         page = context.new_page()
         page.goto(app.url)
         _settle(page, "EE x=", 4.0)
-        app.loop.set_gizmo_target(np.array([0.25, 0.05, 0.0]))  # towards the base: slides on a limit
-        time.sleep(3.0)
-        page.screenshot(path=str(out / "planar.png"))
+        from cobotsafety.app.gizmo import GizmoSettings  # noqa: PLC0415
+
+        app.panel.max_speed_m_s.value = 0.04  # slow: the slide lasts longer than a software-WebGL screenshot
+        app.loop.gizmo = GizmoSettings(max_speed_m_s=0.04)
+        app.loop.set_gizmo_target(np.array([0.45, -0.15, 0.0]))  # across the base: slides round joint 2's circle B
+        page.get_by_text("Sliding along B").wait_for(timeout=120_000)
+        time.sleep(2.0)
+        _shoot(page, out / "planar.png", "Sliding along B")
         page.close()
     finally:
         app.stop()
@@ -53,15 +82,32 @@ def panda_human(context, out: Path) -> None:
         page.goto(app.url)
         _settle(page, "EE x=", 4.0)
         page.get_by_text("Replay", exact=True).click()
-        page.get_by_role("button", name="Play").click()  # the visitor presses Play
-        app.replay.seek(4.0)  # the recorded person walks in from about 4 s
-        time.sleep(1.0)
-        page.get_by_role("button", name="Pause").click()  # paused: the canvas and the status agree
-        app.replay.seek(4.5)  # on their way in
-        app.loop.reset()  # the arm at home, as a visitor first sees it
+        page.get_by_role("button", name="Play").click()  # the visitor presses Play: paper 2's experiment 1
+        page.get_by_role("button", name="Pause").wait_for(timeout=120_000)
+        app.panel.speed.value = 0.2  # slowed, still playing: software WebGL takes seconds to take a screenshot
+        app.replay.speed = 0.2
+        app.replay.seek(4.4)  # the co-worker walks in and reaches for the pick pose from about 4 s
+        page.get_by_text("Giving way").first.wait_for(timeout=120_000)
+        time.sleep(0.5)
+        _shoot(page, out / "panda_human.png")  # playing
+        page.close()
+    finally:
+        app.stop()
+
+
+def panda_limit(context, out: Path) -> None:
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415
+    from cobotsafety.ports import free_local_port  # noqa: PLC0415
+
+    app = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port())).start()
+    try:
+        page = context.new_page()
+        page.goto(app.url)
+        _settle(page, "EE x=", 4.0)
+        app.loop.set_gizmo_target(np.array([0.2, 0.0, 0.1]))  # folded in towards the base: joint 4's lower end
+        page.get_by_text("joint 4 at its lower end").first.wait_for(timeout=120_000)
         time.sleep(4.0)
-        page.get_by_text("Drag the arrow handle").scroll_into_view_if_needed()
-        page.screenshot(path=str(out / "panda_human.png"))
+        _shoot(page, out / "panda_limit.png", "joint 4 at its lower end")
         page.close()
     finally:
         app.stop()
@@ -82,13 +128,13 @@ def trial(context, out: Path) -> None:
         server.loop.set_gizmo_target(np.array([x, y, 0.0]))  # the participant starts moving
         time.sleep(4.0)
         server.loop.release_gizmo()
-        page.screenshot(path=str(out / "trial.png"))
+        _shoot(page, out / "trial.png")
         page.close()
     finally:
         server.stop()
 
 
-SHOTS = ("planar", "panda_human", "trial")
+SHOTS = ("planar", "panda_human", "panda_limit", "trial")
 
 
 def main(out: Path = Path("docs/screenshots"), chromium: str = "/usr/bin/chromium", only: tuple[str, ...] = SHOTS) -> None:
@@ -101,7 +147,7 @@ def main(out: Path = Path("docs/screenshots"), chromium: str = "/usr/bin/chromiu
             viewport=VIEWPORT)
         context.set_default_timeout(120_000)
         try:
-            for take in (planar, panda_human, trial):
+            for take in (planar, panda_human, panda_limit, trial):
                 if take.__name__ not in only:
                     continue
                 take(context, out)

@@ -1,4 +1,4 @@
-"""Scene helpers: quaternions, capsule meshes, polylines, distance colours, jog labels."""
+"""Scene helpers: quaternions, capsule meshes, arcs, polylines, distance colours, jog labels, plots."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,6 @@ from scipy.spatial.transform import Rotation
 
 from cobotsafety.app import draw
 from cobotsafety.app.jog import jog_velocity
-from cobotsafety.app.panel import status_text
 from cobotsafety.app.scene_planar import limitation_outline
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.planar.limitations import JointLimit
@@ -20,9 +19,43 @@ def test_wxyz_z_to_turns_z_onto_direction(direction):
     np.testing.assert_allclose(turned, np.array(direction) / np.linalg.norm(direction), atol=1e-9)
 
 
-def test_capsule_mesh_spans_the_segment():
-    mesh = draw.capsule_mesh(0.3, 0.02)
-    np.testing.assert_allclose(mesh.bounds, [[-0.02, -0.02, -0.02], [0.02, 0.02, 0.32]], atol=1e-9)
+@pytest.mark.parametrize("length_m, radius_m", [(0.3, 0.02), (0.0, 1.0), (1.0, 0.5)])
+def test_capsule_mesh_is_a_closed_outward_capsule_by_trimesh(length_m, radius_m):
+    """trimesh (the oracle) measures our numpy mesh: closed, consistently wound outward, the
+    capsule's bounds, every vertex on the capsule's surface, the volume of an inscribed polyhedron."""
+    import trimesh
+
+    vertices, faces = draw.capsule_mesh(length_m, radius_m)
+    assert vertices.dtype == np.float32 and faces.dtype == np.uint32
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    np.testing.assert_allclose(mesh.bounds, [[-radius_m] * 2 + [-radius_m], [radius_m] * 2 + [length_m + radius_m]],
+                               atol=1e-6)
+    axial = np.clip(vertices[:, 2], 0.0, length_m)  # distance of each vertex to the axis segment
+    surface = np.hypot(np.hypot(vertices[:, 0], vertices[:, 1]), vertices[:, 2] - axial)
+    np.testing.assert_allclose(surface, radius_m, atol=1e-6)  # float32 vertices
+    exact = np.pi * radius_m**2 * length_m + 4.0 / 3.0 * np.pi * radius_m**3
+    assert 0.93 * exact < mesh.volume < exact  # positive: outward; below: inscribed
+
+
+def test_tube_mesh_is_an_open_unit_cylinder_facing_out():
+    import trimesh
+
+    mesh = trimesh.Trimesh(*draw.tube_mesh(), process=False)
+    np.testing.assert_allclose(mesh.bounds, [[-1, -1, 0], [1, 1, 1]], atol=1e-6)
+    radial = np.einsum("ij,ij->i", mesh.triangles_center[:, :2], mesh.face_normals[:, :2])
+    assert (radial > 0).all()
+
+
+def test_arc_points_turn_by_the_right_hand_rule_about_the_axis():
+    points = draw.arc_points((1.0, 2.0, 3.0), (0.0, 0.0, 2.0), (5.0, 0.0, 1.0), 0.0, np.pi / 2, 0.1, count=3)
+    np.testing.assert_allclose(points, [[1.1, 2.0, 3.0], [1.0 + 0.1 / np.sqrt(2), 2.0 + 0.1 / np.sqrt(2), 3.0],
+                                        [1.0, 2.1, 3.0]], atol=1e-12)
+
+
+def test_sphere_wireframe_lies_on_the_sphere():
+    segments = draw.sphere_wireframe((0.1, -0.2, 0.3), 0.7)
+    np.testing.assert_allclose(np.linalg.norm(segments.reshape(-1, 3) - [0.1, -0.2, 0.3], axis=1), 0.7, atol=1e-12)
 
 
 def test_closed_polyline_of_a_square():
@@ -56,22 +89,6 @@ def test_joint_2_limit_drawn_at_the_reach_of_its_angles():
     np.testing.assert_allclose(sorted(set(np.round(radii, 9))), expected)
 
 
-def test_status_text_names_mode_rate_distance_and_constraints():
-    text = status_text("stop", 499.6, 0.2341, ("B joint 2 upper", "B joint 2 upper", "F bar"),
-                       np.array([-0.2, 0.03, 0.0]), True)
-    assert "**stop**" in text and "500 Hz" in text and "234 mm" in text
-    assert "B joint 2 upper, F bar" in text and "stopped" in text and "EE x=-200.0 y=30.0" in text
-    assert "contradicting" not in text
-
-
-def test_status_text_says_why_the_arm_stopped_and_counts_contradicting_retreats():
-    text = status_text("anticipative", 1000.0, 0.3, ("human torso",), np.zeros(3), True, ssm=True,
-                       reason="yielding: human torso", contradictions=12)
-    assert "**stopped** (yielding: human torso)" in text and "contradicting retreats: **12** steps" in text
-    moving = status_text("anticipative", 1000.0, 0.3, (), np.zeros(3), False, reason="relaxed", contradictions=0)
-    assert "stopped" not in moving and "contradicting" not in moving
-
-
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -97,3 +114,12 @@ def test_plot_history_starts_a_new_trace_when_time_goes_back():
     for t_s in (1.0, 2.0, 3.0, 0.5, 0.6):  # a reset at 3 s
         history.add(LoopSnapshot(t_s, 0, "off", None, np.zeros(3), np.zeros(2), False, {"rate_hz": 1.0}), 0.3)
     np.testing.assert_allclose(history.array("t_s"), [0.5, 0.6])
+
+
+def test_distance_chart_range_holds_every_value_in_steps():
+    from cobotsafety.app.plots import distance_range_mm
+
+    assert distance_range_mm(np.array([np.nan, np.nan])) == (0.0, 1000.0)
+    assert distance_range_mm(np.array([120.0, 900.0])) == (0.0, 1000.0)
+    assert distance_range_mm(np.array([120.0, 1001.0, np.nan])) == (0.0, 1250.0)
+    assert distance_range_mm(np.array([-19.0, 2600.0])) == (-250.0, 2750.0)

@@ -11,6 +11,7 @@ from cobotsafety.ports import free_local_port
 @pytest.fixture(scope="module")
 def app():
     demo = DemoApp(DemoConfig(scene="arm", port=free_local_port()))  # threads not started: driven by hand
+    demo.ensure_replay()
     yield demo
     demo.server.stop()
 
@@ -25,7 +26,7 @@ def separation(app, human) -> float:
 
 def test_replayed_human_reaches_the_controller(app):
     app.replay.playing = False
-    app.replay.seek(app.replay.duration_s / 2)
+    app.replay.seek(5.0)  # exp1: the co-worker reaches towards the table
     app.render_once()
     app.loop.step_once()
     human = app.replay.capsules()
@@ -73,3 +74,25 @@ def test_the_arm_gives_way_to_the_replayed_human(app):
     app.loop.release_gizmo()
     assert min(distances) >= critical - 1e-6
     assert np.linalg.norm(app.loop.snapshot().p_base_ee_m - ee) > 0.02  # it did move toward them
+
+
+def test_the_person_is_drawn_opaque_and_never_below_the_floor(app):
+    """Issue 25 item 11: no translucent overlaps (the dark speckles), and the floor drawn at the
+    recordings' floor, under every capsule of every bundled recording."""
+    from cobotsafety.app.demo_app import BUNDLED_RECORDINGS
+    from cobotsafety.app.replay_control import ReplayControl
+    from cobotsafety.human.recording import bundled_recording
+
+    assert app.human.bodies.opacity is None and app.human.ends.opacity is None  # viser: None = opaque
+    floor_z = float(app.scene.view.grid.position[2])
+    assert floor_z == pytest.approx(-0.75)
+    for name, _ in BUNDLED_RECORDINGS:
+        control = ReplayControl()
+        assert control.load(bundled_recording(name)) == ""
+        lowest = np.inf
+        for t_s in np.arange(0.0, control.duration_s, 0.5):
+            control.seek(t_s)
+            human = control.capsules()
+            if human.present:
+                lowest = min(lowest, float((np.minimum(human.p0_b_m[:, 2], human.p1_b_m[:, 2]) - human.radius_m).min()))
+        assert floor_z < lowest < np.inf, (name, lowest)

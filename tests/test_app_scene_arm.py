@@ -110,3 +110,65 @@ def test_capsules_without_a_urdf_frame_move_only_when_they_moved(server):
     view.update(snapshot, state.q, (shifted_p0, shifted_p1, radius))
     np.testing.assert_allclose(view.capsules[-1].position, shifted_p0[-1])
     np.testing.assert_allclose(view.capsules[1].position, p0[1])
+
+
+def test_limits_that_bind_are_drawn_where_they_bind():
+    """Issue 25 item 6: a joint at its limit gets an arc at the joint whose binding end the
+    needle (turning with the joint) points at; the reach sphere and the table light up."""
+    from cobotsafety.app.demo_app import DemoApp, DemoConfig
+    from cobotsafety.app.scene_limits import reach_geometry
+
+    demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))  # threads not started
+    try:
+        view = demo.scene.view
+
+        def drive(target, until: str, steps: int = 6000) -> None:
+            demo.loop.reset()
+            demo.loop.set_gizmo_target(np.array(target, dtype=float))
+            for _ in range(steps):
+                demo.loop.step_once()
+                if until in demo.loop.snapshot().report.binding:
+                    break
+            assert until in demo.loop.snapshot().report.binding
+            for _ in range(2):
+                demo.render_once()
+
+        drive((0.2, 0.0, 0.1), "panda_joint4 lower")  # folded in towards the base
+        keys = ("panda_joint4 arc", "panda_joint4 lower", "panda_joint4 needle")
+        assert set(keys) <= set(view.highlighted())
+        assert all(view.marks.nodes[key].visible for key in keys)
+        assert not view.marks.nodes["panda_joint4 upper"].visible
+        handles = {frame.name: frame for frame in view.urdf._joint_frames}
+        handles[view.urdf._visual_root_frame.name] = view.urdf._visual_root_frame
+        R_arc, p_arc = world_pose(handles, view.marks.nodes["panda_joint4 lower"])  # the parent link's frame
+        R_needle, p_needle = world_pose(handles, view.marks.nodes["panda_joint4 needle"])  # the child's
+        origin = np.asarray(view.urdf._urdf.joint_map["panda_joint4"].origin, dtype=float)[:3, 3]
+        np.testing.assert_allclose(p_needle, p_arc + R_arc @ origin, atol=1e-9)  # the arc's centre: the joint
+        arc_points = view.marks.nodes["panda_joint4 lower"].points.astype(float)
+        end = R_arc @ (arc_points[0, 0] - origin)  # the arc's first point: the lower limit
+        tip = R_needle @ view.marks.nodes["panda_joint4 needle"].points.astype(float)[0, 1]
+        model = demo.scene.robot.state.model
+        index = model.joints[model.getJointId("panda_joint4")].idx_q
+        q, lower = float(demo.scene.robot.state.q[index]), float(model.lowerPositionLimit[index])
+        assert 0.0 <= q - lower < 0.2  # at (or approaching) its lower limit
+        angle = float(np.arccos(np.clip(end @ tip / np.linalg.norm(end) / np.linalg.norm(tip), -1.0, 1.0)))
+        assert angle == pytest.approx(q - lower, abs=2e-3)  # the needle stands that far from the binding end
+
+        drive((1.5, 0.0, 0.4), "reach extended")
+        assert "reach extended" in view.highlighted() and view.marks.nodes["reach extended"].visible
+        assert not view.marks.nodes["panda_joint4 arc"].visible
+        shoulder, _, extended = reach_geometry(demo.scene.robot.constraints)
+        radii = np.linalg.norm(view.marks.nodes["reach extended"].points.reshape(-1, 3) - shoulder, axis=1)
+        np.testing.assert_allclose(radii, extended, rtol=1e-5)
+
+        drive((0.5, 0.0, -0.3), "table (panda_joint7)")
+        assert view.marks.nodes["table bound"].visible and not view.marks.nodes["table"].visible
+        demo.loop.release_gizmo()
+        demo.loop.reset()
+        for _ in range(5):
+            demo.loop.step_once()
+        demo.render_once()
+        assert view.highlighted() == ()
+        assert view.marks.nodes["table"].visible and not view.marks.nodes["table bound"].visible
+    finally:
+        demo.server.stop()

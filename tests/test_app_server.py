@@ -28,19 +28,63 @@ def test_sliding_limitation_is_highlighted_and_gizmo_returns(app):
     for _ in range(400):
         app.loop.step_once()
     report = app.loop.snapshot().report
-    assert any(name.startswith("B joint 2") for name in report.binding)
+    assert report.binding == ("B joint 2 upper",)
     app.render_once()
-    normal, bright = app.scene.view._limit_nodes["B joint 2"]
+    normal, bright = app.scene.view._limit_nodes["B joint 2 upper"]
     assert bright.visible and not normal.visible  # highlight = a visibility toggle: reaches open tabs
     assert tuple(bright.colors.reshape(-1, 3)[0]) == draw.HIGHLIGHT
+    other_end, other_end_bright = app.scene.view._limit_nodes["B joint 2 lower"]  # only the end that binds
+    assert other_end.visible and not other_end_bright.visible
     other, other_bright = app.scene.view._limit_nodes["E extended reach"]
     assert other.visible and not other_bright.visible
-    assert "B joint 2" in app.scene.view.active_limitations()
+    assert app.scene.view.active_limitations() == ("B joint 2 upper",)
     app.loop.release_gizmo()
     for _ in range(300):
         app.loop.step_once()
     app.render_once()
     np.testing.assert_allclose(app.gizmo.position, app.loop.snapshot().p_base_ee_m, atol=1e-5)
+    assert app.scene.view.active_limitations() == ()
+
+
+def test_a_released_arm_resting_on_e_is_not_highlighted(app):
+    """Issue 25 item 11: released at the extended reach, the filter still lists E (the arm
+    touches it) but nothing asks for motion: the highlight goes."""
+    app.loop.reset()
+    app.loop.set_gizmo_target(np.array([-0.7, 0.2, 0.0]))  # outwards, beyond the reach circle E
+    for _ in range(4000):
+        app.loop.step_once()
+    app.render_once()
+    assert app.scene.view.active_limitations() == ("E extended reach",)
+    app.loop.release_gizmo()
+    for _ in range(500):
+        app.loop.step_once()
+    assert app.loop.snapshot().report.binding == ("E extended reach",)
+    app.render_once()
+    assert app.scene.view.active_limitations() == ()
+
+
+def test_joint_1_lower_end_alone_lights_up(app):
+    """Issue 25 item 11: D's two rays are drawn apart; only the binding end is highlighted."""
+    app.loop.reset()
+    app.loop.set_gizmo_target(np.array([0.25, 0.05, 0.0]))
+    for _ in range(2500):
+        app.loop.step_once()
+        if "D joint 1 lower" in app.loop.snapshot().report.binding:
+            break
+    app.render_once()
+    assert app.scene.view.active_limitations() == ("D joint 1 lower",)
+    assert app.scene.view._limit_nodes["D joint 1 upper"][0].visible
+    app.loop.release_gizmo()
+
+
+def test_built_in_zones_are_selectable_at_first_load():
+    """Issue 25 item 9: the Zone list holds the scene's zones before anything was added."""
+    demo = DemoApp(DemoConfig(port=free_local_port()))
+    try:
+        assert demo.zones.selected.options == ("F circle zone", "F rectangle zone")
+        assert demo.zones.selected.value == "F circle zone"
+    finally:
+        demo.server.stop()
 
 
 def test_arm_scene_switch_renders_and_unknown_robot_keeps_previous(app):
@@ -127,23 +171,51 @@ def test_seek_maximum_and_replay_button_and_paths():
     assert "/tmp" not in message and "cobotsafety-upload" not in message and "take.bag" in message
 
 
-def test_status_label_and_plot_show_one_minimum_distance():
+def test_status_segment_and_plot_show_one_minimum_distance():
+    """Issue 25 item 3: one number (the status), drawn (the segment between its witness points)
+    and plotted from the same report in the same update; the controller's separation."""
+    import re
+
     demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))
     try:
+        assert demo.replay.replay is None  # the recording is read after the server answers
+        demo.ensure_replay()
         assert not demo.replay.playing and demo.replay.time_s == 0.0  # the demo starts paused
-        demo.replay.seek(8.0)  # the person stands ~0.6 m from the arm
+        demo.replay.seek(5.0)  # exp1: the co-worker reaches towards the table
         demo.loop.method = "off"
         for frame in range(30):
             demo.render_once()
             demo.loop.step_once()
         shown = demo.last_min_distance_m
         assert shown is not None
-        assert f"human distance **{shown * 1e3:.0f} mm**" in demo.panel.status.content
-        assert "SSM **off**" in demo.panel.status.content
-        assert demo.human.label.text == f"{shown * 1e3:.0f} mm"
+        status = demo.panel.status.content
+        assert re.search(rf"Person: <b>{shown * 1e3:.0f} mm</b> from the arm", status)
+        shown_text = " ".join(demo.last_status_lines)
+        assert len(re.findall(r"(?<![\d.])\d+ mm", shown_text)) == 2, shown_text  # the distance and its aim
+        assert "SSM <b>off</b>" in status
+        p_robot, p_human = demo.human.segment.points[0]
+        assert float(np.linalg.norm(p_human - p_robot)) == pytest.approx(shown, abs=1e-5)
         assert demo.history.array("min_distance_m")[-1] == pytest.approx(shown)
+        assert demo.plots.distance.data[1][-1] == pytest.approx(shown * 1e3)
         # the controller's separation (robot capsules but the fixed base), same human, same pose
         assert demo.loop.snapshot().report.min_distance_m == pytest.approx(shown, abs=1e-6)
+    finally:
+        demo.server.stop()
+
+
+def test_the_report_s_witness_points_are_drawn_when_it_has_them():
+    """After the control core's rebuild the report carries the pair: the display draws exactly that."""
+    from types import SimpleNamespace
+
+    demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))
+    try:
+        fields = dict(min_distance_m=0.4321, p_robot_closest_m=np.array([0.1, 0.2, 0.3]),
+                      p_human_closest_m=np.array([0.5, 0.2, 0.3]))
+        closest = demo.closest_pair(SimpleNamespace(**fields), None, None)  # no capsules, no human: not computed
+        assert closest[0] == 0.4321
+        np.testing.assert_array_equal(closest[1], fields["p_robot_closest_m"])
+        np.testing.assert_array_equal(closest[2], fields["p_human_closest_m"])
+        assert demo.closest_pair(SimpleNamespace(**{**fields, "min_distance_m": None}), None, None) is None
     finally:
         demo.server.stop()
 
@@ -156,6 +228,7 @@ def test_bad_replay_is_refused_with_the_loaders_message(tmp_path):
 
 
 def test_uploaded_garbage_keeps_previous_replay(app):
+    app.ensure_replay()
     before = app.replay.replay
     message = app.load_uploaded("garbage.jsonl.gz", b"\x00\x01")
     assert message.startswith("garbage.jsonl.gz is not a readable recording (")

@@ -41,6 +41,7 @@ def settle(probe: WireProbe, quiet_s: float = 1.0, timeout_s: float = 30.0) -> N
 @pytest.fixture(scope="module")
 def panda():
     demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))  # threads not started
+    demo.ensure_replay()
     probe = WireProbe(demo.url).start()
     yield demo, probe
     probe.stop()
@@ -61,7 +62,7 @@ def test_decode_frame_reads_viser_wire_format():
 def test_a_playing_replay_moves_the_human_without_sending_meshes(panda):
     app, probe = panda
     app.replay.playing = True
-    app.replay.seek(app.replay.duration_s * 0.45)
+    app.replay.seek(4.5)  # exp1: the co-worker walks in and reaches from about 4 s
     render_frames(app, 3)
     settle(probe)
     probe.reset()
@@ -72,7 +73,7 @@ def test_a_playing_replay_moves_the_human_without_sending_meshes(panda):
         time.sleep(1 / 30)  # at the render rate: viser coalesces updates of a node not yet sent
     settle(probe)
     counts = probe.counts()
-    assert present == FRAMES, "the bundled recording has the person in view at 45 % of its length"
+    assert present == FRAMES, "the default recording has the person in view from 4.5 s for 1.5 s"
     created = {kind: n for kind, n in counts["types"].items() if kind in CREATING}
     assert created == {}, f"scene nodes re-made during playback: {created}"
     # the batched human bodies were moved in (almost) every frame: positions change as the person walks
@@ -103,15 +104,17 @@ def test_an_idle_arm_sends_only_the_status_and_plots(panda):
 def test_planar_scene_hides_the_human_layer():
     demo = DemoApp(DemoConfig(port=free_local_port()))
     try:
+        demo.ensure_replay()
         demo.replay.playing = True
-        demo.replay.seek(demo.replay.duration_s * 0.45)
+        demo.replay.seek(5.0)
         render_frames(demo, 6)
         assert demo.human.shown_capsules == 0
-        assert not demo.human.bodies.visible and not demo.human.label.visible
+        assert not demo.human.bodies.visible and not demo.human.segment.visible
         assert demo.last_min_distance_m is None
-        assert "distance" not in demo.panel.status.content
-        assert not demo.plots.distance.visible
+        assert "Person" not in demo.panel.status.content
+        assert not demo.plots.distance.visible and not demo.panel.replay_folder.visible
         demo.switch_scene("panda")
+        assert demo.panel.replay_folder.visible
         render_frames(demo, 3)
         assert demo.human.bodies.visible and demo.human.shown_capsules > 0
         np.testing.assert_array_less(0.0, demo.human.bodies.batched_scales[: demo.human.shown_capsules])

@@ -1,4 +1,7 @@
-"""The demo in headless Chromium (Playwright): renders, real mouse drag, sliding vs stop, tabs.
+"""The planar demo in headless Chromium (Playwright): renders, real mouse drag, sliding vs stop,
+tabs, and what a presenter sees (issue 25): a status that keeps the buttons still, a view from
+above that a missed drag does not tilt, a visible "Reset view", big gizmo arrows, built-in zones
+listed, no Replay folder in the plane, only the binding end of a joint limit lit.
 
 The gizmo is dragged with the real mouse: the test finds its red (x) arrow in a screenshot by
 colour and drags it, so the command goes through three.js, the websocket and the server exactly
@@ -8,12 +11,12 @@ as a user's drag does. Software WebGL is slow: generous timeouts, few tests.
 from __future__ import annotations
 
 import io
-import tempfile
-import threading
 import time
 
 import numpy as np
 import pytest
+from browser_page import (PANEL_X, camera_of, coarse_difference, colour_pixels, launch, open_page, rgb, steady_rgb, to_screen,
+                          wait_until)
 from PIL import Image
 
 from cobotsafety.app.demo_app import DemoApp, DemoConfig
@@ -21,13 +24,8 @@ from cobotsafety.ports import free_local_port
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-        "--disable-sync", "--no-first-run"]
-VIEWPORT = {"width": 1200, "height": 800}
 #: viser's x-arrow colour (sRGB) as rendered by software WebGL.
 GIZMO_X_RGB = np.array([249, 45, 104])
-TIMEOUT_MS = 90_000
 
 
 @pytest.fixture(scope="module")
@@ -42,24 +40,18 @@ def browser():
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            tempfile.mkdtemp(prefix="cobotsafety-chromium-"), executable_path=CHROMIUM, headless=True,
-            args=ARGS, viewport=VIEWPORT)
-        context.set_default_timeout(TIMEOUT_MS)
+        context = launch(playwright)
         yield context
         context.close()
 
 
-def open_page(browser, app):
-    page = browser.new_page()
-    page.goto(app.url)
-    page.get_by_text("EE x=").wait_for()
-    time.sleep(1.5)  # a few frames of software rendering
-    return page
-
-
-def rgb(page) -> np.ndarray:
-    return np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+def gizmo_x_mask(page) -> np.ndarray:
+    """Pixels of the gizmo's x arrow left of the panel (the mouse moved away: no hover colour)."""
+    page.mouse.move(5, 5)  # no hover highlight
+    mask = np.abs(rgb(page) - GIZMO_X_RGB).sum(axis=2) < 30
+    mask[:, PANEL_X:] = False  # the panel
+    mask[620:, :200] = False  # the orientation widget in the corner
+    return mask
 
 
 def gizmo_x_arrow(page) -> tuple[float, float]:
@@ -67,7 +59,7 @@ def gizmo_x_arrow(page) -> tuple[float, float]:
     page.mouse.move(5, 5)  # no hover highlight
     image = rgb(page)
     mask = np.abs(image - GIZMO_X_RGB).sum(axis=2) < 30
-    mask[:, 780:] = False  # the panel
+    mask[:, PANEL_X:] = False  # the panel
     mask[620:, :200] = False  # the orientation widget in the corner
     ys, xs = np.nonzero(mask)
     assert xs.size > 10, "the gizmo's x arrow is not visible"
@@ -75,7 +67,7 @@ def gizmo_x_arrow(page) -> tuple[float, float]:
 
 
 def reset(page, app, mode: str) -> None:
-    page.get_by_role("button", name="Reset").click()
+    page.get_by_role("button", name="Reset", exact=True).click()
     page.get_by_role("combobox", name="Mode").click()
     page.get_by_role("option", name=mode, exact=True).click()
     deadline = time.monotonic() + 30
@@ -111,7 +103,7 @@ def test_page_connects_and_robot_renders(browser, app):
     assert canvas.std() > 10.0, "the canvas is blank"
     assert len(np.unique(canvas)) > 50
     gizmo_x_arrow(page)  # the gizmo was drawn at the end-effector
-    assert "anticipative" in page.get_by_text("EE x=").inner_text()
+    assert "Mode anticipative" in page.locator(".cobotsafety-status").inner_text()
     page.close()
 
 
@@ -171,30 +163,17 @@ def test_two_tabs_share_one_robot_and_a_disconnect_keeps_the_loop(browser, app):
     second.close()
 
 
-def colour_pixels(page, rgb_target, tolerance: int = 60) -> int:
-    """Pixels of the scene area (left of the panel) within ``tolerance`` (L1) of ``rgb_target``."""
-    image = rgb(page)[:, :780]
-    return int((np.abs(image - np.array(rgb_target)).sum(axis=2) < tolerance).sum())
-
-
-def wait_until(condition, timeout_s: float = 60.0, what: str = "") -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"timed out waiting for {what}"
-        time.sleep(0.3)
-
-
-def test_open_tab_follows_highlight_fig9_pull_and_refused_upload(browser, app):
-    """Items 2, 7, 8: a tab opened before anything happened shows the highlight and its end, the
-    Fig. 9 pull moves the gizmo with the arm to a marked target, and a refused upload says why."""
+def test_open_tab_follows_highlight_and_fig9_pull(browser, app):
+    """A tab opened before anything happened shows the highlight and its end, and the Fig. 9 pull
+    moves the gizmo with the arm to a marked target."""
     from cobotsafety.app import draw
     from cobotsafety.planar.planar_scenes import FIG9_TARGET_M
 
     page = open_page(browser, app)
     reset(page, app, "anticipative")
     assert colour_pixels(page, draw.HIGHLIGHT) < 30
-    app.loop.set_gizmo_target(np.array([0.3, 0.03, 0.0]))  # towards the base: joint 2's circle B binds
-    wait_until(lambda: "B joint 2" in app.scene.view.active_limitations(), what="B to bind")
+    app.loop.set_gizmo_target(np.array([0.3, 0.03, 0.0]))  # towards the base: joint 2's circle B
+    wait_until(lambda: "B joint 2 upper" in app.scene.view.active_limitations(), what="B to bind")
     wait_until(lambda: colour_pixels(page, draw.HIGHLIGHT) > 300, what="the highlight in the open tab")
     app.loop.release_gizmo()
     app.loop.reset()
@@ -213,88 +192,128 @@ def test_open_tab_follows_highlight_fig9_pull_and_refused_upload(browser, app):
     drag(page, app, -8, 0.5)  # a nudge of the gizmo moves the arm a little, not back to the start
     time.sleep(1.0)
     assert np.linalg.norm(app.loop.snapshot().p_base_ee_m - ee) < 0.05
-
-    page.get_by_text("Replay").first.click()
-    page.locator("input[type=file]").set_input_files(
-        files=[{"name": "broken.jsonl.gz", "mimeType": "application/gzip", "buffer": b"this is not a recording"}])
-    page.get_by_text("Recording refused").wait_for()
-    body = page.inner_text("body")
-    assert "broken.jsonl.gz" in body
-    assert "cobotsafety-upload" not in body and "/tmp" not in body
-    assert app.replay.name == "reach-over.jsonl.gz"  # the previous replay stays
+    app.switch_scene("planar")
     page.close()
 
 
-def test_panda_replay_draws_the_human_and_one_distance(browser):
-    """Items 1, 3, 5: the replay starts paused; once played, the human is drawn in the open tab;
-    the status and the scene label show one distance."""
-    import re
-
-    demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port())).start()
-    try:
-        page = open_page(browser, demo)
-        assert not demo.replay.playing and demo.replay.time_s == 0.0  # the robot waits at home
-        assert "SSM off" in page.get_by_text("EE x=").inner_text()
-        demo.loop.method = "off"  # no input, no avoidance: the arm holds still, only the human moves
-        page.get_by_text("Replay").first.click()
-        page.get_by_role("button", name="Play").click()
-        wait_until(lambda: demo.replay.playing, what="Play")
-        page.get_by_role("button", name="Pause").wait_for()
-        demo.replay.seek(5.0)  # the recorded person walks in from about 4 s
-        time.sleep(3.0)
-        assert demo.replay.playing and demo.human.shown_capsules > 0
-        with_human = rgb(page)
-        demo.human.visible = False
-        time.sleep(1.5)
-        without_human = rgb(page)
-        demo.human.visible = True
-        changed = int((np.abs(with_human - without_human).sum(axis=2) > 60)[:, :780].sum())
-        assert changed > 3000, f"hiding the human changed only {changed} pixels: it was not drawn"
-
-        page.get_by_role("button", name="Pause").click()
-        wait_until(lambda: not demo.replay.playing, what="Pause")
-        demo.replay.seek(8.0)  # paused with the person in view
-        time.sleep(2.0)
-        status = page.get_by_text("EE x=").inner_text()
-        shown = re.search(r"human distance (-?\d+) mm", status)
-        assert shown, status
-        assert demo.human.label.text == f"{shown.group(1)} mm"  # the label in the scene says the same
-        page.close()
-    finally:
-        demo.stop()
+def _box(locator) -> dict:
+    """The locator's box; retried while React replaces the element (the status is re-rendered)."""
+    for _ in range(50):
+        box = locator.bounding_box()
+        if box is not None:
+            return box
+        time.sleep(0.1)
+    raise AssertionError(f"{locator} has no box")
 
 
-SUCCESS_WATCH = """() => {
-    window.__uploadedSuccessfully = 0;
-    new MutationObserver(() => {
-        if (document.body.textContent.includes("File uploaded successfully")) window.__uploadedSuccessfully += 1;
-    }).observe(document.body, {subtree: true, childList: true, characterData: true});
-}"""
+def _button_tops(page) -> tuple[float, ...]:
+    return tuple(_box(page.get_by_role("button", name=name, exact=True))["y"]
+                 for name in ("Reset", "Reset view", "Fig. 9 scenario"))
 
 
-def test_a_refused_upload_never_says_it_was_uploaded_successfully(browser, app):
-    """Issue 25 item 2: no viser "File uploaded successfully." for a refused file, one plain
-    sentence naming it once, gone from the Replay folder at the next action; a good file still
-    gets viser's notice (the watch can see it)."""
-    from cobotsafety.human.recording import bundled_recording
+def test_status_changes_in_words_and_the_buttons_stay_put(browser, app):
+    """Issue 25 items 4 and 7: the status says what happens in words (no internal names), and
+    whatever it says (nothing, one limit, a stop, two limits in Fig. 9 a's V) its block keeps its
+    height, its rows theirs (the sentence two, each other line one), and the buttons below keep
+    their place on screen."""
+    from cobotsafety.app.panel import PLANAR_SCENES
+    from cobotsafety.planar.planar_scenes import FIG9_TARGET_M
 
     page = open_page(browser, app)
-    page.evaluate(SUCCESS_WATCH)
-    page.get_by_text("Replay").first.click()
-    page.locator("input[type=file]").set_input_files(
-        files=[{"name": "corrupt.jsonl.gz", "mimeType": "application/gzip", "buffer": b"\x1f\x8b\x08 truncated"}])
-    page.get_by_text("Recording refused").wait_for()
-    time.sleep(3.0)  # viser's notice would have shown by now
-    assert page.evaluate("window.__uploadedSuccessfully") == 0
-    sentence = page.get_by_text("corrupt.jsonl.gz is not a readable recording (").first.inner_text()
-    assert sentence.count("corrupt.jsonl.gz") == 1 and "refused corrupt" not in sentence
-    page.get_by_role("checkbox", name="Loop").click()  # the next action
-    wait_until(lambda: "corrupt.jsonl.gz is not" not in app.panel.replay_message.content, what="the folder cleared")
-    page.get_by_role("checkbox", name="Loop").click()
-    page.locator("input[type=file]").set_input_files(
-        files=[{"name": "take.jsonl.gz", "mimeType": "application/gzip", "buffer": bundled_recording().read_bytes()}])
-    wait_until(lambda: page.evaluate("window.__uploadedSuccessfully") > 0, what="viser's notice for a good file")
-    assert app.replay.name == "take.jsonl.gz"
-    app.panel.recording.value = "reach-over.jsonl.gz"  # as the other tests expect
-    wait_until(lambda: app.replay.name == "reach-over.jsonl.gz", what="the bundled recording again")
+    reset(page, app, "anticipative")
+    status = page.locator(".cobotsafety-status")
+    page.get_by_text("Waiting: drag the arrow handle").wait_for()
+    tops, heights, seen = {_button_tops(page)}, {_box(status)["height"]}, []
+    line_height = _box(status.locator(".cobotsafety-status-line").nth(1))["height"]  # the sentence may take two
+    for scene, target, mode, words in (
+            (PLANAR_SCENES[0], (0.3, 0.03, 0.0), "anticipative", "Sliding along B: joint 2 at its upper end"),
+            (PLANAR_SCENES[0], (0.3, 0.03, 0.0), "stop", "Stopped: B: joint 2 at its upper end"),
+            (PLANAR_SCENES[1], (*FIG9_TARGET_M, 0.0), "anticipative", "Held at B: joint 2 at its upper end; F: the")):
+        if app._planar_label != scene:
+            app.switch_scene("planar", scene)
+        app.loop.reset()
+        app.loop.method = mode
+        app.loop.set_gizmo_target(np.array(target))
+        page.get_by_text(words).wait_for()
+        seen.append(status.inner_text())
+        tops.add(_button_tops(page))
+        heights.add(_box(status)["height"])
+        lines = status.locator(".cobotsafety-status-line")
+        assert _box(lines.first)["height"] == pytest.approx(2 * line_height, abs=0.5)
+        assert {round(_box(lines.nth(i))["height"], 1) for i in range(1, lines.count())} == {round(line_height, 1)}
+        app.loop.release_gizmo()
+    app.loop.method = "anticipative"
+    app.switch_scene("planar")
+    assert len(tops) == 1, tops
+    assert len(heights) == 1, heights
+    shown = " ".join(seen)
+    assert "Limits met: B: joint 2 at its upper end" in shown
+    for internal in ("velocity", "contradicting", "B joint 2 upper", "F triangle"):
+        assert internal not in shown
+    page.close()
+
+
+def test_a_missed_drag_keeps_the_view_from_above_and_reset_view_restores_it(browser, app):
+    """Issue 25 item 5: the gizmo's arrows are long on screen; a left drag that misses them does
+    not tilt the top-down view (orbit locked); the wheel zooms; "Reset view" brings the initial
+    view back in the open tab."""
+    page = open_page(browser, app)
+    reset(page, app, "anticipative")
+    arrow = gizmo_x_mask(page)
+    ys, xs = np.nonzero(arrow)
+    assert xs.max() - xs.min() >= 100, f"the x arrow is {xs.max() - xs.min()} px long"
+    camera = camera_of(app)
+    position, look_at = np.array(camera.position), np.array(camera.look_at)
+    page.mouse.move(5, 5)
+    before = steady_rgb(page)
+    page.mouse.move(120, 700)  # bottom left: empty floor, away from the gizmo
+    page.mouse.down()
+    page.mouse.move(400, 450, steps=12)
+    page.mouse.up()
+    page.mouse.move(5, 5)
+    np.testing.assert_allclose(camera_of(app).position, position, atol=1e-6)
+    after = steady_rgb(page)
+    changed = (np.abs(after - before).sum(axis=2) > 60).mean()
+    assert changed < 0.01, f"{changed:.1%} of the scene changed after a missed drag"
+    page.mouse.move(300, 400)
+    page.mouse.wheel(0, 600)  # zoom out: allowed, stays top-down
+    wait_until(lambda: np.linalg.norm(np.array(camera_of(app).position) - position) > 0.05, what="the zoom")
+    page.get_by_role("button", name="Reset view").click()
+    wait_until(lambda: np.linalg.norm(np.array(camera_of(app).position) - position) < 1e-3
+               and np.linalg.norm(np.array(camera_of(app).look_at) - look_at) < 1e-3, what="the view back")
+    page.mouse.move(5, 5)
+    again = steady_rgb(page)
+    assert coarse_difference(again, before) < 0.01, coarse_difference(again, before)
+    page.close()
+
+
+def test_zones_listed_replay_hidden_and_only_the_binding_end_lit(browser, app):
+    """Issue 25 items 9 and 11: the built-in zones are in the Zone list at first load; the
+    plane has no Replay folder; of joint 1's two rays (D), only the binding one lights up."""
+    from cobotsafety.app import draw
+
+    page = open_page(browser, app)
+    reset(page, app, "anticipative")
+    assert page.get_by_text("Replay", exact=True).count() == 0 or not page.get_by_text("Replay", exact=True).is_visible()
+    page.get_by_text("Protection zones").click()
+    page.get_by_role("combobox", name="Zone").click()
+    page.get_by_role("option", name="F circle zone").wait_for()
+    page.get_by_role("option", name="F rectangle zone").wait_for()
+    page.keyboard.press("Escape")
+    page.get_by_text("Protection zones").click()
+
+    app.loop.set_gizmo_target(np.array([0.25, 0.05, 0.0]))
+    wait_until(lambda: app.scene.view.active_limitations() == ("D joint 1 lower",), what="D lower to bind")
+    wait_until(lambda: colour_pixels(page, draw.HIGHLIGHT) > 150, what="the highlight")
+    limitation = next(lim for lim in app.scene.robot.scene.limitations if lim.name == "D joint 1")
+    reach = app.scene.robot.scene.arm.link_1_m + app.scene.robot.scene.arm.link_2_m
+    image = rgb(page)
+    lit = np.abs(image - np.array(draw.HIGHLIGHT)).sum(axis=2) < 60
+    camera = camera_of(app)
+    for angle, expect_lit in ((limitation.lower_rad, True), (limitation.upper_rad, False)):
+        points = np.array([[f * reach * np.cos(angle), f * reach * np.sin(angle), 0.0] for f in (0.7, 0.8, 0.9)])
+        for u, v in to_screen(camera, page, points).astype(int):
+            window = lit[max(v - 6, 0):v + 7, max(u - 6, 0):u + 7]
+            assert bool(window.any()) == expect_lit, (angle, u, v)
+    app.loop.release_gizmo()
     page.close()

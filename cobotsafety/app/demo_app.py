@@ -6,8 +6,16 @@ an option) and the render loop (``render_hz``) are separate threads; a client th
 mid-drag releases the gizmo.
 
 What a frame sends is bounded: scene nodes are made once and a frame only sets poses,
-visibility and colours (no mesh is re-sent), the status is refreshed at ~5 Hz and the plots at
-~2 Hz. The replay starts paused so a visitor first sees the robot at home, waiting for a drag.
+visibility and colours (no mesh is re-sent). At ~5 Hz one atomic update carries the status, the
+minimum-distance segment and the distance chart's new sample, all read from the same report;
+the speed and rate charts follow at ~1.7 Hz. The replay starts paused so a visitor first sees the
+robot at home, waiting for a drag; the default recording is paper 2's experiment 1 (a co-worker
+walks in and reaches near the arm), the reach-over stress case is listed as such.
+
+Start-up: the server answers before the recording is read. The bundled recording (a few
+seconds of parsing and of the sensor pipeline) is loaded in the background once the first tab
+has had time to draw, or at once when Play needs it; the planar scene, which has no person,
+does not wait for it at all.
 
 Access (``cobotsafety.app.access``): no tab can publish the server (viser's share tunnel is
 refused and its button hidden); every value a tab sends is checked against its control's
@@ -20,6 +28,7 @@ nothing left on disk, no "uploaded" notice for a refused file).
 from __future__ import annotations
 
 import gc
+import html
 import logging
 import math
 import shutil
@@ -30,6 +39,7 @@ import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import viser
@@ -38,15 +48,18 @@ from cobotsafety.app import draw
 from cobotsafety.app.access import (ServerGuard, TokenGate, Verdict, check_bindable, hide_share_button, is_loopback,
                                     reachable_host)
 from cobotsafety.app import jog as jog_module
+from cobotsafety.app.camera import reset_view
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
-from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError
-from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look, status_text
+from cobotsafety.app.gizmo import GizmoSettings, GizmoSettingsError, add_gizmo
+from cobotsafety.app.limit_words import vocabulary_of
+from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look
 from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
 from cobotsafety.app.replay_control import ReplayControl, load_replay, refusal_sentence, seek_maximum_s, without_server_paths
 from cobotsafety.app.scene_human import HumanView, minimum_distance
 from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.uploads import UploadReceiver, check_upload_name
+from cobotsafety.app.status import StatusFacts, status_html, status_lines
 from cobotsafety.app.zones_editor import ZoneEditor
 from cobotsafety.cli.arguments import MAX_RATE_HZ, MIN_RATE_HZ
 from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotError
@@ -63,7 +76,8 @@ class DemoConfig:
     robot: str | None = None
     """Arm name for ``scene="arm"``; None = the arm package's default (panda)."""
     replay: Path | None = None
-    """Human recording (.jsonl.gz) or ROS bag; None = the bundled recording."""
+    """Human recording (.jsonl.gz) or ROS bag, read at start-up; None = the bundled recordings,
+    ``DEFAULT_RECORDING`` first, read in the background."""
     host: str = "127.0.0.1"
     """Interface to bind; beyond loopback a tab needs ``token`` to change anything."""
     port: int = 8080
@@ -110,6 +124,23 @@ def settle_heap() -> None:
     gc.freeze()
 
 
+BUNDLED_RECORDINGS = (
+    ("exp1", "exp1 · paper 2, experiment 1: walks in and reaches"),
+    ("exp2", "exp2 · paper 2, experiment 2: walks past"),
+    ("reach-over", "reach-over · stress case: reaches over the table"),
+)
+"""The bundled recordings in the Replay list: (asset name, what the list says)."""
+DEFAULT_RECORDING = "exp1"
+"""The recording a first Play shows: a co-worker walks in, the arm gives way and comes back."""
+PRELOAD_AFTER_CONNECT_S = 3.0
+"""The bundled recording is read this long after the first tab connected [s] (its first frame
+first), or ``PRELOAD_AT_THE_LATEST_S`` after start-up without a tab."""
+PRELOAD_AT_THE_LATEST_S = 20.0
+STATUS_EVERY_FRAMES = 6
+"""The status, the distance segment and the distance chart: every 6th render frame (~5 Hz)."""
+CHARTS_EVERY_STATUS = 3
+"""The speed and rate charts: every 3rd status refresh (~1.7 Hz)."""
+
 FIG9_MARKER_RADIUS_M = 0.05
 """Radius of the ring marking the Fig. 9 target [m] (wider than the end-effector drawn on it)."""
 FIG9_MARKER_RGB = (40, 170, 60)
@@ -118,19 +149,30 @@ FIG9_ARRIVED_M = 0.005
 
 
 def supported_robots() -> tuple[str, ...]:
-    """``planar`` plus the arm names of ``cobotsafety.arm``."""
+    """``planar`` plus the arm names of ``cobotsafety.arm`` when its ``ArmController`` can be loaded.
+
+    Looked up without importing it (that would load numba and pinocchio, seconds of the planar
+    demo's start-up): the modules are found, their names read from ``arm.robots``.
+    """
+    from importlib.util import find_spec  # noqa: PLC0415
+
     try:
-        from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415
-        from cobotsafety.arm.controller import ArmController  # noqa: F401, PLC0415 - the 3D scene needs it
+        available = all(find_spec(name) is not None for name in ("pinocchio", "numba", "cobotsafety.arm.controller"))
+        from cobotsafety.arm.robots import ROBOTS  # noqa: PLC0415 - numpy only
     except ImportError:
         return (PLANAR,)
-    return (PLANAR, *(name for name in ROBOTS if name != PLANAR))
+    return (PLANAR, *(name for name in ROBOTS if name != PLANAR)) if available else (PLANAR,)
 
 
 class DemoApp:
     """The running demo. ``start()`` then ``url``; ``stop()`` shuts everything down."""
 
-    def __init__(self, config: DemoConfig = DemoConfig()):
+    def __init__(self, config: DemoConfig = DemoConfig(), announce: Callable[[str], None] | None = None):
+        """``announce(url)`` is called as soon as the server listens, before the robot and its
+        scene are built: a tab opened then loads the page while the server builds the rest
+        (the scene streams in as it is made), instead of after it."""
+        if config.scene not in ("planar", "arm"):
+            raise CobotSafetyError(f"--scene must be 'planar' or 'arm', got {config.scene!r}")
         config.check()
         robot_name = PLANAR if config.scene == "planar" else (config.robot or "panda")
         known = supported_robots()
@@ -139,18 +181,28 @@ class DemoApp:
         check_bindable(config.host)
         self.config = config
         self.replay = ReplayControl()
-        first = Path(config.replay) if config.replay is not None else bundled_recording()
-        message = self.replay.load(first)
-        if message:  # a bad --replay is refused at start-up with the loader's message
-            raise RecordingError(message)
+        self._replay_lock = threading.Lock()
+        self._pending: str | None = None
+        """The recording label still to read (``ensure_replay``), None once read."""
+        if config.replay is not None:  # a bad --replay is refused at start-up with the loader's message
+            first = Path(config.replay)
+            message = self.replay.load(first)
+            if message:
+                raise RecordingError(message)
+            self.recordings: dict[str, Path] = {self.replay.name: first}
+        else:
+            self.recordings = {label: bundled_recording(name) for name, label in BUNDLED_RECORDINGS}
+            self._pending = dict(BUNDLED_RECORDINGS)[DEFAULT_RECORDING]
         self.replay.playing = False  # the robot waits at home until the visitor plays the human
-        self.recordings: dict[str, Path | object] = {self.replay.name: first}
+        self.recordings: dict[str, Path | object] = dict(self.recordings)
         """Recording list: bundled or --replay files by path, uploads as loaded replays."""
         self._uploaded: list[str] = []
         self.token_gate = None if is_loopback(config.host) else TokenGate(config.token, what="demo token")
         self.server = viser.ViserServer(host=config.host, port=config.port, verbose=False)
+        self._first_client = threading.Event()
+        self.server.on_client_connect(lambda _client: self._first_client.set())
         try:
-            self._build(robot_name)
+            self._build(robot_name, announce)
         except BaseException:
             self.server.stop()
             raise
@@ -160,28 +212,39 @@ class DemoApp:
         """The token a tab must enter to change the demo (None on loopback: every tab may)."""
         return None if self.token_gate is None else self.token_gate.token
 
-    def _build(self, robot_name: str) -> None:
+    def _build(self, robot_name: str, announce: Callable[[str], None] | None) -> None:
+        """The panel first (a tab opened on the announced URL shows it and waits), then the
+        robot and its scene, the loop, the human, the zone editor, the charts, the gizmo."""
         config = self.config
         self.guard = ServerGuard(self.server, may_change=self.may_change,
                                  view_only_hint="Watching only: enter the token printed when the demo started "
                                                 "(folder 'Change the demo') to drive the robot or change the scene.")
         hide_share_button(self.server, control_width="large")
+        dim = 2 if robot_name == PLANAR else 3
+        self.panel = make_panel(self.server, supported_robots(), robot_name, dim, tuple(self.recordings),
+                                GizmoSettings(), ssm_available=dim == 3)
+        self.panel.status.content = status_html((f"<b>Loading the {html.escape(robot_name)} scene...</b>",))
+        if announce is not None:
+            announce(self.url)
         self.scene = make_scene(self.server, robot_name)
         self._planar_label = PLANAR_SCENES[0]
         self.loop = ControlLoop(self.scene.robot, LoopSettings(rate_hz=config.rate_hz, fifo_priority=CONTROL_FIFO_PRIORITY),
                                 human_source=self.replay if self.scene.dim == 3 else None)
-        self.panel = make_panel(self.server, supported_robots(), robot_name, self.scene.dim, tuple(self.recordings),
-                                self.loop.gizmo, ssm_available=self.scene.dim == 3)
+        if self._pending is not None:
+            self.panel.recording.value = self._pending
         self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
         self.human = HumanView(self.server)
         self.human.visible = self.scene.dim == 3  # the planar arm ignores the human: so does its view
         self.panel.legend.content = self._legend()
         self.zones = ZoneEditor(self.server, self.loop, lambda: self.scene)
+        self.zones.reset()  # the scene's built-in zones are selectable from the first load
         self.plots = Plots(self.server, config.rate_hz, "Robot-human distance")
         self.plots.distance.visible = self.scene.dim == 3
         self.history = PlotHistory()
+        self.vocabulary = vocabulary_of(self.scene.robot)
         self._dragging_client: int | None = None
         self._render_thread: threading.Thread | None = None
+        self._preload_thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._switching = threading.RLock()
         self.frames = 0
@@ -193,7 +256,8 @@ class DemoApp:
         self._target_marker = None
         self._scripted_since_steps = 0
         self.last_min_distance_m: float | None = None
-        """The one minimum distance shown by the status, the scene label and the plot [m]."""
+        """The one minimum distance shown by the status, the scene's segment and the plot [m]."""
+        self.last_status_lines: tuple[str, ...] = ()
         self.gizmo = self._make_gizmo()
         self.uploads = UploadReceiver(self.server, self.panel.upload, self.load_uploaded, refused_title="Recording refused")
         self.guard.uploads[self.uploads.uuid] = self.uploads
@@ -231,9 +295,7 @@ class DemoApp:
 
     # ---- wiring --------------------------------------------------------------------------
     def _make_gizmo(self) -> viser.TransformControlsHandle:
-        gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.15, line_width=4.0, active_axes=self.scene.gizmo_axes, disable_rotations=True,
-            depth_test=False, position=tuple(self.scene.robot.p_base_ee_m))
+        gizmo = add_gizmo(self.server, self.scene.gizmo_axes, self.scene.robot.p_base_ee_m)
 
         @gizmo.on_update
         def _(event: viser.TransformControlsEvent) -> None:
@@ -270,6 +332,10 @@ class DemoApp:
         def _(_event) -> None:
             loop.reset()
             self.history.clear()
+
+        @panel.reset_view.on_click
+        def _(_event) -> None:
+            reset_view(self.server)
 
         @panel.robot.on_update
         def _(_event) -> None:
@@ -309,12 +375,14 @@ class DemoApp:
 
         @panel.play.on_click
         def _(_event) -> None:
+            self.ensure_replay()
             replay.playing = not replay.playing
             self._show_play_button()
 
         @panel.seek_s.on_update
         def _(_event) -> None:
             if abs(panel.seek_s.value - replay.time_s) > 0.25:  # a user's seek, not our own refresh
+                self.ensure_replay()
                 replay.seek(panel.seek_s.value)
 
         @panel.speed.on_update
@@ -329,13 +397,16 @@ class DemoApp:
         def _(_event) -> None:
             name = panel.recording.value
             source = self.recordings.get(name)
-            if source is None or name == replay.name:
+            if source is None or name == replay.name or name == self._pending:
                 return
-            if isinstance(source, Path):
-                self.show_replay_message(replay.load(source, name))
-            else:  # an upload, kept loaded
-                replay.use(source, name)
-                self.show_replay_message("")
+            with self._replay_lock:
+                self._pending = None
+                if isinstance(source, Path):
+                    self.show_replay_message(replay.load(source, name))
+                else:  # an upload, kept loaded
+                    replay.use(source, name)
+                    self.show_replay_message("")
+                replay.playing = False  # a new recording waits for Play, from its start
             self.panel.seek_s.max = seek_maximum_s(replay.duration_s)
             self._show_play_button()
 
@@ -384,7 +455,7 @@ class DemoApp:
 
     def show_replay_message(self, message: str) -> None:
         """A refusal in the Replay folder (until the next action in any tab), or what is loaded."""
-        self.panel.replay_message.content = f"**{message}**" if message else f"loaded {self.replay.name}"
+        self.panel.replay_message.content = f"**{message}**" if message else f"ready: {self.replay.name}"
         self._refusal_shown = bool(message)
         if message:
             logger.warning("%s", message)
@@ -393,6 +464,32 @@ class DemoApp:
         if self._refusal_shown:
             self._refusal_shown = False
             self.panel.replay_message.content = ""
+
+    def ensure_replay(self) -> None:
+        """Read the recording still pending (the bundled default), now; a no-op once read."""
+        with self._replay_lock:
+            label = self._pending
+            if label is None:
+                return
+            self.panel.replay_message.content = f"reading {label}..."
+            message = self.replay.load(self.recordings[label], label)
+            self.replay.playing = False
+            self._pending = None
+        self.panel.seek_s.max = seek_maximum_s(self.replay.duration_s)
+        self.show_replay_message(message)
+        self._show_play_button()
+
+    def _preload(self) -> None:
+        """Read the pending recording in the background, once the first tab has had its scene
+        (``PRELOAD_AFTER_CONNECT_S`` after it connected) and only for a scene with a person."""
+        deadline = time.monotonic() + PRELOAD_AT_THE_LATEST_S
+        if self._first_client.wait(PRELOAD_AT_THE_LATEST_S):
+            deadline = min(deadline, time.monotonic() + PRELOAD_AFTER_CONNECT_S)
+        while not self._stop.wait(max(0.0, deadline - time.monotonic())):
+            if self.scene.dim == 3:
+                self.ensure_replay()
+                return
+            deadline = time.monotonic() + 1.0  # the planar scene: read it when a 3D scene is chosen
 
     def _show_play_button(self) -> None:
         self.panel.play.label, self.panel.play.icon = play_button_look(self.replay.playing)
@@ -442,6 +539,12 @@ class DemoApp:
                 self.history.clear()
                 self.human.visible = scene.dim == 3
                 self.plots.distance.visible = scene.dim == 3
+                self.panel.replay_folder.visible = scene.dim == 3
+                self.vocabulary = vocabulary_of(scene.robot)
+                if scene.dim == 3 and self._pending is not None and self._preload_thread is None:
+                    self._preload_thread = threading.Thread(target=self.ensure_replay, name="cobotsafety-preload",
+                                                            daemon=True)
+                    self._preload_thread.start()  # a person can be played in this scene: read the recording
                 self.panel.legend.content = self._legend()
                 for handle in (self.panel.planar_scene, self.panel.fig9):
                     handle.disabled = scene.dim != 2
@@ -493,9 +596,29 @@ class DemoApp:
             return None
         return report.min_distance_m, report.p_robot_closest_m, report.p_human_closest_m
 
+    def _critical_m(self) -> float | None:
+        """The distance the human constraint keeps [m], when the robot says."""
+        critical = getattr(getattr(self.loop.robot, "human", None), "critical_m", None)
+        return float(critical) if critical is not None else None
+
+    def status_facts(self, snapshot, closest, human) -> StatusFacts:
+        report = snapshot.report
+        dim = self.scene.dim
+        replay_state = f"{self._pending}: reading it" if self._pending is not None and dim == 3 else ""
+        return StatusFacts(
+            method=snapshot.method, rate_hz=snapshot.stats.get("rate_hz", 0.0), report=report,
+            p_base_ee_m=snapshot.p_base_ee_m, vocabulary=self.vocabulary, dim=dim,
+            ssm=bool(self.panel.ssm.value) if dim == 3 else None,
+            distance_m=None if closest is None else closest[0], critical_m=self._critical_m() if dim == 3 else None,
+            human_present=bool(human is not None and human.present),
+            stale_reason=human.reason if human is not None and human.stale else "",
+            replay_playing=self.replay.playing, replay_state=replay_state,
+            careful=getattr(report, "human_status", "") or "",
+            motion_limited=bool(getattr(report, "motion_limited", ())), failure=self.loop.failure or "")
+
     def render_once(self, wall_dt_s: float = 0.0) -> None:
         self.frames += 1
-        status_frame = self.frames % 6 == 0  # status (and the scene's distance label) at ~5 Hz
+        status_frame = self.frames % STATUS_EVERY_FRAMES == 0
         with self._switching:
             scene = self.scene
             snapshot = self.loop.snapshot()
@@ -507,37 +630,23 @@ class DemoApp:
             with self.server.atomic():
                 scene.render(snapshot, data)
                 closest = self.closest_pair(snapshot.report) if human is not None else None
-                self.human.update(human, closest, refresh_text=status_frame)
+                self.human.update(human, closest)
+                if status_frame:  # the status and the chart: the segment's report, in its update
+                    self.last_min_distance_m = None if closest is None else closest[0]
+                    self.history.add(snapshot, self.last_min_distance_m)
+                    lines = status_lines(self.status_facts(snapshot, closest, human))
+                    if lines != self.last_status_lines:
+                        self.panel.status.content = status_html(lines)
+                        self.last_status_lines = lines
+                    if scene.dim == 3:  # the planar scene has no person: its distance chart is hidden
+                        self.plots.push_distance(self.history)
+                    if self.frames % (STATUS_EVERY_FRAMES * CHARTS_EVERY_STATUS) == 0:
+                        self.plots.push(self.history, distance=scene.dim == 3)
+                    if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere
+                        self.panel.seek_s.value = round(min(self.replay.time_s, self.panel.seek_s.max), 2)
                 if self._dragging_client is None:  # nobody holds it: the gizmo rides with the end-effector
                     if np.linalg.norm(np.asarray(self.gizmo.position) - snapshot.p_base_ee_m) > 1e-5:
                         self.gizmo.position = tuple(snapshot.p_base_ee_m)
-        report = snapshot.report
-        min_distance = None if closest is None else closest[0]
-        self.last_min_distance_m = min_distance
-        if self.frames % 3 == 0:  # plot samples at ~10 Hz
-            self.history.add(snapshot, min_distance)
-        if status_frame:
-            ssm = bool(self.panel.ssm.value) if scene.dim == 3 else None
-            text = status_text(snapshot.method, snapshot.stats["rate_hz"], min_distance,
-                               report.binding if report is not None else (), snapshot.p_base_ee_m,
-                               bool(report is not None and report.stopped), ssm=ssm,
-                               distance_label="human distance" if scene.dim == 3 else None,
-                               reason=report.reason if report is not None else "",
-                               contradictions=report.contradictions if report is not None else 0)
-            if human is not None and human.stale:
-                text += f"  \n**sensor stale**: {human.reason}"
-            if report is not None and report.human_status:
-                text += f"  \n**careful**: {report.human_status}"
-            if report is not None and report.motion_limited:
-                text += "  \nlimited by the robot's acceleration: " + ", ".join(report.motion_limited)
-            if self.loop.failure:
-                text += f"  \n**control stopped**: {self.loop.failure}"
-            if text != self.panel.status.content:
-                self.panel.status.content = text
-            if abs(self.panel.seek_s.value - self.replay.time_s) > 0.05:  # playing, or seeked elsewhere
-                self.panel.seek_s.value = round(min(self.replay.time_s, self.panel.seek_s.max), 2)
-        if self.frames % 15 == 0:  # plots at ~2 Hz
-            self.plots.push(self.history)
 
     def _render_run(self) -> None:
         period = 1.0 / self.config.render_hz
@@ -597,12 +706,17 @@ class DemoApp:
         self._stop.clear()
         self._render_thread = threading.Thread(target=self._render_run, name="cobotsafety-render", daemon=True)
         self._render_thread.start()
+        if self._pending is not None:
+            self._preload_thread = threading.Thread(target=self._preload, name="cobotsafety-preload", daemon=True)
+            self._preload_thread.start()
         return self
 
     def stop(self) -> None:
         self._stop.set()
         if self._render_thread is not None:
             self._render_thread.join(timeout=2.0)
+        if self._preload_thread is not None:
+            self._preload_thread.join(timeout=10.0)
         self.loop.stop()
         self.uploads.close()
         self.server.stop()

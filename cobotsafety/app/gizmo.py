@@ -1,8 +1,12 @@
-"""Gizmo offset -> desired end-effector velocity: dead band, gain, speed cap.
+"""Gizmo offset -> desired end-effector velocity: dead band, gain, speed cap; and the gizmo itself.
 
 The user drags a transform gizmo away from the end-effector; the offset ``p_ee_gizmo`` (gizmo
 position minus end-effector position, base frame) is the desired Cartesian velocity, like a
 spring pulling the end-effector to the gizmo.
+
+``add_gizmo`` makes the handle the demo and the trial share: a fixed size on screen
+(``GIZMO_PIXELS``, whatever the zoom; it was ~40 px across in the panda's view), thick arrows,
+drawn over the robot, translation only.
 """
 
 from __future__ import annotations
@@ -12,6 +16,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from cobotsafety.errors import CobotSafetyError
+
+
+GIZMO_PIXELS = 130.0
+"""Length of the gizmo's arrows on screen [px] (``fixed``: the same at any zoom)."""
+GIZMO_LINE_WIDTH = 7.0
+
+
+def add_gizmo(server, active_axes: tuple[bool, bool, bool], p_base_m, name: str = "/gizmo"):
+    """The transform gizmo at ``p_base_m`` (shape (3,) [m]) moving along ``active_axes``.
+
+    With all three axes, only the arrows (the plane squares crowded them and hid the arrow
+    pointing away from the camera); in the plane, the arrows and the square that drags both.
+    """
+    return server.scene.add_transform_controls(
+        name, scale=GIZMO_PIXELS, fixed=True, line_width=GIZMO_LINE_WIDTH, active_axes=active_axes,
+        disable_rotations=True, disable_sliders=all(active_axes), depth_test=False,
+        position=tuple(float(c) for c in p_base_m))
 
 
 class GizmoSettingsError(CobotSafetyError, ValueError):

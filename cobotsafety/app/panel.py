@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import viser
 
 from cobotsafety.app.gizmo import GizmoSettings
+from cobotsafety.app.status import status_html
 from cobotsafety.teleoperated import METHODS
 
 PLANAR_SCENES = ("all limitations A-G", "Fig. 9 a (blocked)", "Fig. 9 b (gap)")
@@ -20,10 +21,11 @@ HINT = ("**Drag the arrow handle** at the end-effector: its offset from the end-
 @dataclass(frozen=True)
 class Panel:
     hint: viser.GuiMarkdownHandle
-    status: viser.GuiMarkdownHandle
+    status: viser.GuiHtmlHandle
     mode: viser.GuiDropdownHandle
     ssm: viser.GuiCheckboxHandle
     reset: viser.GuiButtonHandle
+    reset_view: viser.GuiButtonHandle
     robot: viser.GuiDropdownHandle
     planar_scene: viser.GuiDropdownHandle
     fig9: viser.GuiButtonHandle
@@ -32,6 +34,7 @@ class Panel:
     max_speed_m_s: viser.GuiSliderHandle
     jog: viser.GuiButtonGroupHandle
     jog_speed_m_s: viser.GuiSliderHandle
+    replay_folder: viser.GuiFolderHandle
     recording: viser.GuiDropdownHandle
     upload: viser.GuiUploadButtonHandle
     play: viser.GuiButtonHandle
@@ -44,15 +47,20 @@ class Panel:
 
 def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, dim: int,
                recordings: tuple[str, ...], gizmo: GizmoSettings, ssm_available: bool) -> Panel:
-    """Lay out the panel; ``robots``/``recordings`` are the dropdown options."""
+    """Lay out the panel; ``robots``/``recordings`` are the dropdown options.
+
+    The status is a block of fixed height (``status.status_html``): nothing below it moves
+    while its text changes. The Replay folder shows only where a person is modelled (3D).
+    """
     gui = server.gui
     hint = gui.add_markdown(HINT)
-    status = gui.add_markdown("starting...")
+    status = gui.add_html(status_html(("starting...",)))
     mode = gui.add_dropdown("Mode", METHODS, initial_value="anticipative",
                             hint="anticipative: slide along limits; stop: halt at a limit; reactive: repel; off")
     ssm = gui.add_checkbox("SSM", False, disabled=not ssm_available,
                            hint="ISO/TS 15066 speed and separation monitoring (needs the human layer)")
     reset = gui.add_button("Reset", icon=viser.Icon.HOME, hint="back to the home pose")
+    reset_view = gui.add_button("Reset view", icon=viser.Icon.CAMERA, hint="every tab back to the initial view")
     with gui.add_folder("Robot and scene"):
         robot_dropdown = gui.add_dropdown("Robot", robots, initial_value=robot)
         planar_scene = gui.add_dropdown("Planar scene", PLANAR_SCENES, initial_value=PLANAR_SCENES[0],
@@ -67,7 +75,8 @@ def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, d
         axes = ("+x", "-x", "+y", "-y") + (("+z", "-z") if dim == 3 else ())
         jog = gui.add_button_group("Jog", axes)
         jog_speed = gui.add_slider("Jog speed [m/s]", 0.01, 0.25, 0.01, 0.05)
-    with gui.add_folder("Replay", expand_by_default=False):
+    replay_folder = gui.add_folder("Replay", expand_by_default=False, visible=dim == 3)
+    with replay_folder:
         recording = gui.add_dropdown("Recording", recordings or ("(none)",), initial_value=(recordings or ("(none)",))[0])
         upload = gui.add_upload_button("Load recording or ROS bag", hint=".jsonl.gz recording or a ROS bag")
         play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, hint="the replay starts paused")
@@ -75,28 +84,11 @@ def make_panel(server: viser.ViserServer, robots: tuple[str, ...], robot: str, d
         speed = gui.add_slider("Speed", 0.1, 4.0, 0.1, 1.0)
         loop = gui.add_checkbox("Loop", True)
         replay_message = gui.add_markdown("")
-    return Panel(hint, status, mode, ssm, reset, robot_dropdown, planar_scene, fig9, dead_band, gain, max_speed,
-                 jog, jog_speed, recording, upload, play, seek, speed, loop, replay_message, legend)
+    return Panel(hint, status, mode, ssm, reset, reset_view, robot_dropdown, planar_scene, fig9, dead_band, gain,
+                 max_speed, jog, jog_speed, replay_folder, recording, upload, play, seek, speed, loop, replay_message,
+                 legend)
 
 
 def play_button_look(playing: bool) -> tuple[str, viser.Icon]:
     """Label and icon of the replay button: it shows what a click does."""
     return ("Pause", viser.Icon.PLAYER_PAUSE) if playing else ("Play", viser.Icon.PLAYER_PLAY)
-
-
-def status_text(mode: str, rate_hz: float, min_distance_m: float | None, binding: tuple[str, ...],
-                p_base_ee_m, stopped: bool, ssm: bool | None = None,
-                distance_label: str | None = "min distance", reason: str = "", contradictions: int = 0) -> str:
-    """The status: mode, SSM on/off (3D only: ``ssm=None`` hides it), loop rate [Hz], minimum
-    distance [mm] (``distance_label`` says to what; None hides it), active constraints, why the
-    arm stopped (``reason``), how many steps met contradicting retreats (``contradictions``),
-    end-effector position [mm]."""
-    distance = "—" if min_distance_m is None else f"{min_distance_m * 1e3:.0f} mm"
-    active = ", ".join(dict.fromkeys(binding)) or "none"
-    x, y, z = (float(c) * 1e3 for c in p_base_ee_m)
-    halted = (f" · **stopped** ({reason})" if reason else " · **stopped**") if stopped else ""
-    relaxed = f" · contradicting retreats: **{contradictions}** steps" if contradictions else ""
-    monitoring = "" if ssm is None else f" · SSM **{'on' if ssm else 'off'}**"
-    shown = "" if distance_label is None else f"{distance_label} **{distance}** · "
-    return (f"**{mode}**{monitoring} · loop **{rate_hz:.0f} Hz** · {shown}"
-            f"active: **{active}**{halted}{relaxed}  \nEE x={x:.1f} y={y:.1f} z={z:.1f} mm")

@@ -1,5 +1,6 @@
 """The 3D arm scene: URDF meshes (``viser.extras.ViserUrdf``), translucent robot capsules,
-protection zones, and the zone the command slides on highlighted.
+protection zones, the table and the floor, and every limit the command meets highlighted (zones
+here, joints, reach and table by ``scene_limits.LimitMarks``, all read by ``limit_words``).
 
 Nodes are made once; ``update`` only turns the frames of the joints that moved by more than
 ``REDRAW_TOLERANCE_RAD`` since the last frame sent (``UrdfJointPoser``); an arm holding still,
@@ -20,12 +21,21 @@ import numpy as np
 import viser
 
 from cobotsafety.app import draw
+from cobotsafety.app.camera import set_initial_view
 from cobotsafety.app.control_loop import LoopSnapshot
+from cobotsafety.app.lighting import light_scene
+from cobotsafety.app.limit_words import ZONE, describe, in_play, vocabulary_of
+from cobotsafety.app.scene_limits import FLOOR_BELOW_TABLE_M, LimitMarks, table_height_m
 from cobotsafety.arm.limitations import BoxZone, CapsuleZone, HalfSpaceZone, SphereZone
 
 ROOT = "/arm"
 CAPSULE_COLOUR = (90, 140, 230)
-ZONE_COLOUR = (230, 120, 40)
+ZONE_COLOUR = draw.ZONE
+CAMERA_POSITION_M = (-0.85, -1.35, 1.25)
+CAMERA_LOOK_AT_M = (0.5, 0.05, 0.3)
+"""The arm's initial view: from behind its left shoulder, above the table. The recorded people
+come to the table's far edge (x >= 0.6 m), so they stand beyond the arm instead of between it
+and the camera; no gizmo axis points at the camera (each is 50-65 degrees off the view line)."""
 HALF_SPACE_SIZE_M = 1.5
 REDRAW_TOLERANCE_RAD = 1e-3
 """Joint change [rad] (or [m] for prismatic joints) below which a frame does not turn that joint."""
@@ -135,18 +145,16 @@ class UrdfJointPoser:
         return count
 
 
-def _mesh_arrays(mesh):
-    return np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32)
-
-
 class ArmView:
     def __init__(self, server: viser.ViserServer, teleop):
         self.server, self.teleop = server, teleop
         state = teleop.state
-        server.scene.set_up_direction("+z")
-        server.initial_camera.position = (1.6, -1.4, 1.1)
-        server.initial_camera.look_at = (0.3, 0.0, 0.35)
-        self.grid = server.scene.add_grid(f"{ROOT}/grid", width=2.0, height=2.0, cell_size=0.1, section_size=0.5)
+        set_initial_view(server, CAMERA_POSITION_M, CAMERA_LOOK_AT_M)
+        light_scene(server)
+        floor_z = table_height_m(getattr(teleop, "constraints", ())) - FLOOR_BELOW_TABLE_M
+        self.grid = server.scene.add_grid(f"{ROOT}/grid", width=4.0, height=4.0, cell_size=0.25, section_size=1.0,
+                                          position=(0.5, 0.0, floor_z))
+        self.vocabulary = vocabulary_of(teleop)
         self.urdf = None
         if state.spec.loader is not None:
             from viser.extras import ViserUrdf  # noqa: PLC0415
@@ -164,7 +172,7 @@ class ArmView:
         frames = self.poser.frames if self.urdf is not None else {}
         for i in range(len(state.capsule_radius)):
             axis = state.capsule_p1_local[i] - state.capsule_p0_local[i]
-            mesh = _mesh_arrays(draw.capsule_mesh(float(np.linalg.norm(axis)), float(state.capsule_radius[i])))
+            mesh = draw.capsule_mesh(float(np.linalg.norm(axis)), float(state.capsule_radius[i]))
             look = {"color": CAPSULE_COLOUR, "opacity": 0.25 if self.urdf is not None else 0.9}
             parent = frames.get(state.capsules[i].joint)
             if parent is not None:  # capsule ends are fixed in the joint frame = the child link's frame
@@ -178,6 +186,7 @@ class ArmView:
         self._capsules_drawn: tuple[np.ndarray, np.ndarray] | None = None
         """Capsule ends (p0, p1) as last sent, shape (r, 3) each [m]."""
         self._highlighted: tuple[str, ...] = ()
+        self.marks = LimitMarks(server, ROOT, teleop, self.urdf)
         self.redraw_zones()
         if self.urdf is not None:  # the fixed joints' frames are placed once, here
             self.poser.pose(urdf_joint_values(state.model, np.asarray(state.q, dtype=float), self.joint_names))
@@ -199,7 +208,7 @@ class ArmView:
             elif isinstance(zone, CapsuleZone):
                 axis = np.asarray(zone.p1) - np.asarray(zone.p0)
                 mesh = draw.capsule_mesh(float(np.linalg.norm(axis)), zone.radius_m)
-                node = scene.add_mesh_simple(name, *_mesh_arrays(mesh), color=ZONE_COLOUR, opacity=0.35,
+                node = scene.add_mesh_simple(name, *mesh, color=ZONE_COLOUR, opacity=0.35,
                                              position=zone.p0, wxyz=draw.wxyz_z_to(axis))
             elif isinstance(zone, HalfSpaceZone):
                 normal = np.asarray(zone.normal, dtype=float)
@@ -210,12 +219,21 @@ class ArmView:
             self.zone_nodes[zone.name] = node
 
     def highlight(self, binding: tuple[str, ...]) -> None:
+        """Highlight what ``binding`` (the rows in play, ``limit_words.in_play``) names: zones
+        turn magenta, joints, reach and table get their marks."""
         if binding == self._highlighted:
             return
+        limits = [describe(name, self.vocabulary) for name in binding]
+        zones = {limit.target for limit in limits if limit.kind == ZONE}
         for name, node in self.zone_nodes.items():
-            active = any(row == name or row.startswith(name + " ") for row in binding)
-            node.color = draw.HIGHLIGHT if active else ZONE_COLOUR
+            node.color = draw.HIGHLIGHT if name in zones else ZONE_COLOUR
+        self.marks.show(limits)
         self._highlighted = binding
+
+    def highlighted(self) -> tuple[str, ...]:
+        """What is drawn highlighted now: zone names and ``LimitMarks`` keys."""
+        zones = tuple(name for name, node in self.zone_nodes.items() if tuple(node.color) == draw.HIGHLIGHT)
+        return zones + self.marks.shown
 
     def robot_capsules(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         state = self.teleop.state
@@ -223,7 +241,7 @@ class ArmView:
 
     def update(self, snapshot: LoopSnapshot, q: np.ndarray, capsules) -> None:
         """``q``: pinocchio configuration; ``capsules``: ``(p0, p1, radius)`` world frame [m]."""
-        self.highlight(snapshot.report.binding if snapshot.report is not None else ())
+        self.highlight(in_play(snapshot.report))
         if self.urdf is not None:
             self.poser.pose(urdf_joint_values(self.teleop.state.model, np.asarray(q, dtype=float), self.joint_names))
         p0, p1, _ = capsules
@@ -243,5 +261,6 @@ class ArmView:
     def remove(self) -> None:
         for node in [*self.zone_nodes.values(), *self.capsules, self.grid]:
             node.remove()
+        self.marks.remove()
         if self.urdf is not None:
             self.urdf.remove()

@@ -1,26 +1,32 @@
-"""Human capsules coloured by distance, and the minimum-distance segment with its value.
+"""Human capsules coloured by distance, and the minimum-distance segment between the witness points.
 
-``HumanView`` makes its nodes once: the capsules are two batched meshes (a unit cylinder per
+``HumanView`` makes its nodes once: the capsules are two batched meshes (a unit tube per
 capsule body, scaled to its radius and length, and a unit sphere per end point), so a frame
 sends only instance poses, scales and a colour, never a mesh. Slots beyond the capsules present
-get scale 0. ``minimum_distance`` picks the closest robot-human capsule pair with
-``cobotsafety.geometry.capsule_distance``: the one "min distance" the demo shows (status, label,
-plot).
+get scale 0. The human is drawn opaque: translucent tubes and spheres overlapping at every
+joint drew dark speckles (unsorted transparency).
+
+The distance's value is written once, in the status (a label in the scene is drawn by the WebGL
+canvas, which on a slow client lags the panel by seconds: two numbers disagreed on one
+screen). The scene shows where it is: the red segment between the two witness points.
+``minimum_distance`` is the display's own computation of that pair, used only while the
+controller's report does not carry it (``StepReport.p_robot_closest_m``).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import trimesh
 import viser
 
 from cobotsafety.app import draw
-from cobotsafety.geometry.capsule import capsule_distance
 from cobotsafety.human.body import HumanCapsules
 
 MAX_CAPSULES = 5
 ROOT = "/human"
-OPACITY = 0.85
+RADIUS_STEP_M = 0.002
+"""Radii are drawn to this step [m] (a stale sensor grows them a little every frame)."""
+COLOUR_STEP_M = 0.02
+"""The human's colour follows the distance in steps of this size [m] (not re-sent every frame)."""
 
 
 def minimum_distance(robot_p0_m: np.ndarray, robot_p1_m: np.ndarray, robot_radius_m: np.ndarray,
@@ -32,6 +38,8 @@ def minimum_distance(robot_p0_m: np.ndarray, robot_p1_m: np.ndarray, robot_radiu
     """
     if not human.present or len(robot_radius_m) == 0:
         return None
+    from cobotsafety.geometry.capsule import capsule_distance  # noqa: PLC0415 - numba: not on the planar path
+
     distance, a, b = capsule_distance(robot_p0_m[:, None, :], robot_p1_m[:, None, :], robot_radius_m[:, None],
                                       human.p0_b_m[None, :, :], human.p1_b_m[None, :, :], human.radius_m[None, :])
     i, j = np.unravel_index(int(np.argmin(distance)), distance.shape)
@@ -57,19 +65,13 @@ def capsule_instances(p0_m: np.ndarray, p1_m: np.ndarray, radius_m: np.ndarray, 
     end_scales = np.zeros(2 * slots, np.float32)
     for i in range(count):
         axis = np.asarray(p1_m[i], dtype=float) - np.asarray(p0_m[i], dtype=float)
-        radius = float(radius_m[i])
+        radius = round(float(radius_m[i]) / RADIUS_STEP_M) * RADIUS_STEP_M  # grows with sensor age: not every frame
         body_positions[i] = p0_m[i]
         body_wxyzs[i] = draw.wxyz_z_to(axis)
-        body_scales[i] = (radius, radius, max(float(np.linalg.norm(axis)), 1e-6))
+        body_scales[i] = (radius, radius, round(max(float(np.linalg.norm(axis)), 1e-6), 4))
         end_positions[2 * i], end_positions[2 * i + 1] = p0_m[i], p1_m[i]
         end_scales[2 * i] = end_scales[2 * i + 1] = radius
     return body_positions, body_wxyzs, body_scales, end_positions, end_scales
-
-
-def _unit_cylinder() -> trimesh.Trimesh:
-    mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=20)
-    mesh.apply_translation([0.0, 0.0, 0.5])
-    return mesh
 
 
 class HumanView:
@@ -77,22 +79,22 @@ class HumanView:
 
     def __init__(self, server: viser.ViserServer):
         self.server = server
-        cylinder, sphere = _unit_cylinder(), trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        tube, sphere = draw.tube_mesh(), draw.capsule_mesh(0.0, 1.0, segments=16, rings=5)
         bodies, wxyzs, scales, ends, end_scales = capsule_instances(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
         self.bodies = server.scene.add_batched_meshes_simple(
-            f"{ROOT}/bodies", np.asarray(cylinder.vertices, np.float32), np.asarray(cylinder.faces, np.uint32),
-            batched_wxyzs=wxyzs, batched_positions=bodies, batched_scales=scales, batched_colors=draw.GREY,
-            opacity=OPACITY, lod="off", cast_shadow=False, receive_shadow=False)
+            f"{ROOT}/bodies", *tube, batched_wxyzs=wxyzs, batched_positions=bodies, batched_scales=scales,
+            batched_colors=draw.GREY, lod="off", cast_shadow=False, receive_shadow=False)
         self.ends = server.scene.add_batched_meshes_simple(
-            f"{ROOT}/ends", np.asarray(sphere.vertices, np.float32), np.asarray(sphere.faces, np.uint32),
-            batched_wxyzs=np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (len(ends), 1)),
-            batched_positions=ends, batched_scales=end_scales, batched_colors=draw.GREY, opacity=OPACITY,
+            f"{ROOT}/ends", *sphere, batched_wxyzs=np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (len(ends), 1)),
+            batched_positions=ends, batched_scales=end_scales, batched_colors=draw.GREY,
             lod="off", cast_shadow=False, receive_shadow=False)
         self.segment = server.scene.add_line_segments(f"{ROOT}/min_distance", np.zeros((1, 2, 3)), draw.RED,
-                                                      thickness=0.006, visible=False)
-        self.label = server.scene.add_label(f"{ROOT}/min_distance_label", "", visible=False)
+                                                      thickness=0.008, visible=False)
         self.shown_capsules = 0
         """How many human capsules the last ``update`` drew (0 when hidden or absent)."""
+        self._sent: dict[tuple[int, str], np.ndarray] = {}
+        """(node id, property) -> the value last sent."""
+        self._segment_points: np.ndarray | None = None
         self._visible = True
 
     @property
@@ -105,35 +107,51 @@ class HumanView:
         for node in (self.bodies, self.ends):
             node.visible = self._visible
         if not self._visible:
-            self.segment.visible = self.label.visible = False
+            self.segment.visible = False
 
-    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None,
-               refresh_text: bool = True) -> None:
-        """Move the capsules to ``human`` and show ``closest`` (from ``minimum_distance``).
+    def update(self, human: HumanCapsules | None, closest: tuple[float, np.ndarray, np.ndarray] | None) -> int:
+        """Move the capsules to ``human`` and draw ``closest``: ``(distance [m], robot witness
+        point (3,), human witness point (3,))``, base frame, or None.
 
-        ``refresh_text``: rewrite the label's value (the server does it in the frames that
-        refresh the status line, so the scene and the status always show the same number).
-        """
+        Sends only what changed since the last call (a paused replay, an unchanged colour or
+        segment send nothing: a slow client fell seconds behind a stream of repeats); returns
+        the number of properties sent."""
         present = self._visible and human is not None and human.present
         if present:
-            bodies, wxyzs, scales, ends, end_scales = capsule_instances(human.p0_b_m, human.p1_b_m, human.radius_m)
+            arrays = capsule_instances(human.p0_b_m, human.p1_b_m, human.radius_m)
             self.shown_capsules = min(len(human.radius_m), MAX_CAPSULES)
         else:
-            bodies, wxyzs, scales, ends, end_scales = capsule_instances(np.zeros((0, 3)), np.zeros((0, 3)),
-                                                                        np.zeros(0))
+            arrays = capsule_instances(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
             self.shown_capsules = 0
-        self.bodies.batched_positions, self.bodies.batched_wxyzs = bodies, wxyzs
-        self.bodies.batched_scales = scales
-        self.ends.batched_positions, self.ends.batched_scales = ends, end_scales
-        colour = draw.distance_colour(None if closest is None else closest[0])
-        for node, count in ((self.bodies, MAX_CAPSULES), (self.ends, 2 * MAX_CAPSULES)):
-            node.batched_colors = np.tile(np.array(colour, np.uint8), (count, 1))
+        distance = None if closest is None else round(closest[0] / COLOUR_STEP_M) * COLOUR_STEP_M
+        colour = np.array(draw.distance_colour(distance), np.uint8)
+        bodies, wxyzs, scales, ends, end_scales = arrays
+        wanted = (
+            (self.bodies, "batched_positions", bodies), (self.bodies, "batched_wxyzs", wxyzs),
+            (self.bodies, "batched_scales", scales), (self.ends, "batched_positions", ends),
+            (self.ends, "batched_scales", end_scales),
+            (self.bodies, "batched_colors", np.tile(colour, (MAX_CAPSULES, 1))),
+            (self.ends, "batched_colors", np.tile(colour, (2 * MAX_CAPSULES, 1))),
+        )
+        sent = 0
+        for node, name, value in wanted:
+            key = (id(node), name)
+            if key not in self._sent or not np.array_equal(self._sent[key], value):
+                setattr(node, name, value)
+                self._sent[key] = value
+                sent += 1
         if closest is None or not present:
-            self.segment.visible = self.label.visible = False
-            return
-        distance_m, p_robot, p_human = closest
-        self.segment.points = np.array([[p_robot, p_human]], dtype=np.float32)
-        self.label.position = (p_robot + p_human) / 2.0
-        if refresh_text or not self.label.visible:
-            self.label.text = f"{distance_m * 1e3:.0f} mm"
-        self.segment.visible = self.label.visible = True
+            if self.segment.visible:
+                self.segment.visible = False
+                sent += 1
+            return sent
+        _, p_robot, p_human = closest
+        points = np.array([[p_robot, p_human]], dtype=np.float32)
+        if self._segment_points is None or not np.array_equal(points, self._segment_points):
+            self.segment.points = points
+            self._segment_points = points
+            sent += 1
+        if not self.segment.visible:
+            self.segment.visible = True
+            sent += 1
+        return sent

@@ -1,8 +1,11 @@
 """The planar scene of paper 1 seen from above: RR arm, limitations A-G, binding highlighted.
 
 Nodes are made once (``PlanarView(...)``); ``update`` only moves them and recolours the
-limitations the command slides on. ``redraw_limitations`` rebuilds the limitation drawings
-after the zone editor or the scene selector changed the scene.
+limitations the command slides on (``limit_words.in_play``: not the one a released arm rests
+against). A joint limit is two drawings, its lower and its upper end, so only the end that
+binds lights up. ``redraw_limitations`` rebuilds the limitation drawings after the zone editor
+or the scene selector changed the scene. The view from above is the task: orbiting is locked
+(``camera.lock_orbit``).
 """
 
 from __future__ import annotations
@@ -13,7 +16,10 @@ import numpy as np
 import viser
 
 from cobotsafety.app import draw
+from cobotsafety.app.camera import lock_orbit, set_initial_view, unlock_orbit
 from cobotsafety.app.control_loop import LoopSnapshot
+from cobotsafety.app.lighting import light_scene
+from cobotsafety.app.limit_words import RobotVocabulary, describe, in_play
 from cobotsafety.planar.limitations import (
     CircleKeepIn,
     CircleKeepOut,
@@ -29,7 +35,12 @@ LINK_RADIUS_M = 0.012
 ROOT = "/planar"
 
 ARM_COLOUR = (90, 140, 230)
-ZONE_COLOUR = (230, 120, 40)
+ZONE_COLOUR = draw.ZONE
+PLANAR_WORDS = RobotVocabulary(planar=True)
+CAMERA_POSITION_M = (0.15, -0.01, 1.0)
+CAMERA_LOOK_AT_M = (0.15, 0.0, 0.0)
+"""Top-down, close enough that the reach circle fills most of the canvas height, shifted so the
+workspace sits left of the control panel."""
 LIMIT_COLOUR = (110, 110, 120)
 
 
@@ -41,6 +52,27 @@ def planar_capsules(p_base_elbow_m: np.ndarray, p_base_ee_m: np.ndarray) -> tupl
     p0 = np.array([np.zeros(3), p_base_elbow_m], dtype=float)
     p1 = np.array([p_base_elbow_m, p_base_ee_m], dtype=float)
     return p0, p1, np.full(2, CAPSULE_RADIUS_M)
+
+
+def limitation_parts(limitation: PlanarLimitation, teleop: PlanarTeleop) -> list[tuple[str, np.ndarray]]:
+    """``[(key, segments (m, 2, 3))]`` drawing ``limitation``: a joint limit's two ends apart
+    (keys ``"<name> lower"``, ``"<name> upper"``, as its binding rows are named), any other
+    drawable limitation whole (key: its name); [] when it cannot be drawn."""
+    if isinstance(limitation, JointLimit) and limitation.joint in (1, 2):
+        arm = teleop.scene.arm
+        parts = []
+        for side, angle in (("lower", limitation.lower_rad), ("upper", limitation.upper_rad)):
+            if limitation.joint == 2:
+                l1, l2 = arm.link_1_m, arm.link_2_m
+                radius = math.sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * math.cos(angle))
+                segments = draw.polyline_segments(draw.circle_points((0.0, 0.0), radius))
+            else:
+                reach = arm.link_1_m + arm.link_2_m
+                segments = np.array([[[0.0, 0.0, 0.0], [reach * math.cos(angle), reach * math.sin(angle), 0.0]]])
+            parts.append((f"{limitation.name} {side}", segments))
+        return parts
+    segments = limitation_outline(limitation, teleop)
+    return [] if segments is None else [(limitation.name, segments)]
 
 
 def limitation_outline(limitation: PlanarLimitation, teleop: PlanarTeleop) -> np.ndarray | None:
@@ -100,27 +132,28 @@ class PlanarView:
         self.server = server
         self.teleop = teleop
         scene = server.scene
-        scene.set_up_direction("+z")
-        # Top-down, close enough that the reach circle fills most of the canvas height, shifted
-        # so the workspace sits left of the control panel.
-        server.initial_camera.position = (0.15, -0.01, 1.0)
-        server.initial_camera.look_at = (0.15, 0.0, 0.0)
+        set_initial_view(server, CAMERA_POSITION_M, CAMERA_LOOK_AT_M)
+        lock_orbit(server)
+        light_scene(server)
         self.grid = scene.add_grid(f"{ROOT}/grid", width=1.4, height=1.4, cell_size=0.1, section_size=0.5,
                                    position=(0.0, 0.0, -0.002))
         arm = teleop.scene.arm
         self.base = scene.add_icosphere(f"{ROOT}/base", radius=0.03, color=(60, 60, 70))
         self.links = [
-            scene.add_mesh_simple(f"{ROOT}/link_{i}", *_arrays(draw.capsule_mesh(length, LINK_RADIUS_M)),
+            scene.add_mesh_simple(f"{ROOT}/link_{i}", *draw.capsule_mesh(length, LINK_RADIUS_M),
                                   color=(70, 70, 80))
             for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
         ]
         self.capsules = [
-            scene.add_mesh_simple(f"{ROOT}/capsule_{i}", *_arrays(draw.capsule_mesh(length, CAPSULE_RADIUS_M)),
+            scene.add_mesh_simple(f"{ROOT}/capsule_{i}", *draw.capsule_mesh(length, CAPSULE_RADIUS_M),
                                   color=ARM_COLOUR, opacity=0.35)
             for i, length in ((1, arm.link_1_m), (2, arm.link_2_m))
         ]
         self.ee = scene.add_icosphere(f"{ROOT}/ee", radius=0.015, color=(30, 30, 200))
-        self._limit_nodes: dict[str, tuple[object, tuple[int, int, int]]] = {}
+        self._limit_nodes: dict[str, tuple[object, object]] = {}
+        """Drawing key (``limitation_parts``) -> (normal node, highlight node)."""
+        self._drawn: list[str] = []
+        """Names of the limitations drawn, in the scene's order."""
         self._label_nodes: list[object] = []
         self._highlighted: tuple[str, ...] = ()
         self.redraw_limitations()
@@ -140,22 +173,26 @@ class PlanarView:
             bright.remove()
         for label in self._label_nodes:
             label.remove()
-        self._limit_nodes, self._label_nodes, self._highlighted = {}, [], ()
-        drawable = [(i, lim, limitation_outline(lim, self.teleop)) for i, lim in enumerate(self.teleop.scene.limitations)]
-        drawable = [(i, lim, seg) for i, lim, seg in drawable if seg is not None]
-        for rank, (index, limitation, segments) in enumerate(drawable):
+        self._limit_nodes, self._label_nodes, self._highlighted, self._drawn = {}, [], (), []
+        drawable = [(i, lim, limitation_parts(lim, self.teleop)) for i, lim in enumerate(self.teleop.scene.limitations)]
+        drawable = [(i, lim, parts) for i, lim, parts in drawable if parts]
+        for rank, (index, limitation, parts) in enumerate(drawable):
             colour = ZONE_COLOUR if is_zone(limitation) else LIMIT_COLOUR
-            normal = self.server.scene.add_line_segments(f"{ROOT}/limits/{index}", segments, colour, thickness=0.004)
-            bright = self.server.scene.add_line_segments(f"{ROOT}/limits/{index}_active", segments, draw.HIGHLIGHT,
-                                                         thickness=0.009, visible=False)
-            self._limit_nodes[limitation.name] = (normal, bright)
+            for part, (key, part_segments) in enumerate(parts):
+                node = f"{ROOT}/limits/{index}" + (f"_{part}" if len(parts) > 1 else "")
+                normal = self.server.scene.add_line_segments(node, part_segments, colour, thickness=0.004)
+                bright = self.server.scene.add_line_segments(f"{node}_active", part_segments, draw.HIGHLIGHT,
+                                                             thickness=0.009, visible=False)
+                self._limit_nodes[key] = (normal, bright)
+            self._drawn.append(limitation.name)
+            segments = np.concatenate([part_segments for _, part_segments in parts])
             self._label_nodes.append(self.server.scene.add_label(
                 f"{ROOT}/labels/{index}", label_text(limitation.name), position=label_anchor(limitation, segments, rank),
                 font_screen_scale=0.8))
 
     def legend(self) -> str:
         """Markdown: one line per limitation, its letter and its name."""
-        names = [limitation.name for limitation in self.teleop.scene.limitations if limitation.name in self._limit_nodes]
+        names = [limitation.name for limitation in self.teleop.scene.limitations if limitation.name in self._drawn]
         return "  \n".join(f"**{label_text(name)}** {name.partition(' ')[2]}" for name in names)
 
     def set_teleop(self, teleop: PlanarTeleop) -> None:
@@ -163,17 +200,22 @@ class PlanarView:
         self.redraw_limitations()
 
     def highlight(self, binding: tuple[str, ...]) -> None:
-        """Show the highlight of the limitations whose name starts a binding row's name."""
+        """Show the highlight of the drawings ``binding``'s rows name (``limit_words``: a joint
+        limit's binding end, a link zone whatever the link, any other limitation whole)."""
         if binding == self._highlighted:
             return
-        for name, (normal, bright) in self._limit_nodes.items():
-            active = any(row == name or row.startswith(name + " ") for row in binding)
+        keys = set()
+        for row in binding:
+            limit = describe(row, PLANAR_WORDS)
+            keys.add(f"{limit.target} {limit.side}" if limit.side else limit.target)
+        for key, (normal, bright) in self._limit_nodes.items():
+            active = key in keys
             bright.visible = active
             normal.visible = not active
         self._highlighted = binding
 
     def active_limitations(self) -> tuple[str, ...]:
-        """Names of the limitations drawn highlighted now."""
+        """Drawing keys highlighted now (a limitation's name, or "<name> lower/upper")."""
         return tuple(name for name, (_, bright) in self._limit_nodes.items() if bright.visible)
 
     # -- per frame -----------------------------------------------------------------------
@@ -189,15 +231,13 @@ class PlanarView:
                 node.position = start
                 node.wxyz = wxyz
         self.ee.position = ee
-        self.highlight(snapshot.report.binding if snapshot.report is not None else ())
+        self.highlight(in_play(snapshot.report))
 
     def remove(self) -> None:
+        unlock_orbit(self.server)
         for normal, bright in self._limit_nodes.values():
             normal.remove()
             bright.remove()
         for node in [*self._label_nodes, *self.links, *self.capsules, self.ee, self.base, self.grid]:
             node.remove()
 
-
-def _arrays(mesh):
-    return np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.uint32)

@@ -40,12 +40,14 @@ def zone_geometry(zone) -> tuple[str, np.ndarray, np.ndarray] | None:
 
     Editable: planar rectangles and off-origin keep-out circles, 3D boxes and spheres.
     """
-    from cobotsafety.arm.limitations import BoxZone, SphereZone  # noqa: PLC0415
-
     if isinstance(zone, RectangleZone):
         return "box", np.array([*zone.center_m, 0.0]), np.array([*zone.half_size_m, np.inf])
     if isinstance(zone, CircleKeepOut) and tuple(zone.center_m) != (0.0, 0.0):
         return "sphere", np.array([*zone.center_m, 0.0]), np.full(3, zone.radius_m)
+    if not type(zone).__module__.startswith("cobotsafety.arm"):
+        return None  # a planar limitation: no need to load the 3D zones (numba) to say so
+    from cobotsafety.arm.limitations import BoxZone, SphereZone  # noqa: PLC0415
+
     if isinstance(zone, BoxZone):
         return "box", np.asarray(zone.center, float), np.asarray(zone.half_size, float)
     if isinstance(zone, SphereZone):

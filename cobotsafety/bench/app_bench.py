@@ -2,6 +2,18 @@
 what the server sends per client (bytes and messages per second, decoded by ``WireProbe``
 clients), drag-to-motion latency, and start-up time from the command to the first frame.
 
+Start-up (``startup``, one entry per ``--startup-scenes`` scene): ``cobotsafety demo`` is
+launched and the URL it prints opened at once, in ``--tabs`` tabs at the same time (a fresh
+browser profile: nothing cached). Per tab: ``status_s`` (the status text shown),
+``first_frame_s`` (the scene drawn: the gizmo's red arrow in the canvas, read in the page
+from the WebGL canvas, not by a screenshot, which under software WebGL took seconds itself),
+``settled_s`` (the canvas unchanged for a second: the meshes are in). Beside them the server's
+side: ``url_s`` (the command printed its URL) and the first client's initial scene
+(``initial_messages``, ``initial_kB``: what a ``WireProbe`` received, in a later run of the same
+command, until the gizmo (made last) had come and 1.5 s brought less than 30 kB; the last
+1.5 s of the idle stream included). The command prints its URL as soon as the server listens
+(``DemoApp(announce=...)``): the page loads while the server builds the robot's scene.
+
 The wire figures come in four phases of ``--seconds`` each: ``idle`` (replay paused, no input)
 and ``moving`` (replay playing, the gizmo pulled round a 10 cm circle at 20 Hz), each with 1 and
 with 8 counting clients connected beside the browser tab. Each phase resets the loop statistics:
@@ -42,6 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=rate_hz, default=1000.0, help="control-loop rate [Hz] (default 1000)")
     parser.add_argument("--clients", type=positive_ints, default="1,8", help="counting clients per phase, comma-separated")
     parser.add_argument("--skip-startup", action="store_true", help="do not time the start-up of `cobotsafety demo`")
+    parser.add_argument("--startup-only", action="store_true", help="time the start-up only (no loop, wire, drags)")
+    parser.add_argument("--startup-scenes", default="planar,panda",
+                        help="scenes whose start-up is timed: planar and/or arm names (default planar,panda)")
+    parser.add_argument("--tabs", type=int, default=1, help="tabs opened at once on the printed URL (default 1)")
 
 
 def _arrow(page, timeout_s: float = 30.0) -> tuple[float, float]:
@@ -63,37 +79,106 @@ def _arrow(page, timeout_s: float = 30.0) -> tuple[float, float]:
         time.sleep(0.5)
 
 
-def _first_frame_s(context, port: int) -> tuple[float, float]:
-    """Seconds from launching ``cobotsafety demo`` to (the status line shown, a non-blank scene).
+CANVAS_PROBE_JS = """() => {
+  const c = document.querySelector('canvas[data-engine]');
+  if (!c || !c.width || !c.height) return null;
+  const s = document.createElement('canvas'); s.width = 160; s.height = 100;
+  const g = s.getContext('2d'); g.drawImage(c, 0, 0, 160, 100);
+  const d = g.getImageData(0, 0, 160, 100).data;
+  let red = 0, hash = 0, m = 0, q = 0;
+  for (let i = 0; i < d.length; i += 4) {
+    const v = (d[i] + d[i + 1] + d[i + 2]) / 3; m += v; q += v * v;
+    if (Math.abs(d[i] - 249) + Math.abs(d[i + 1] - 45) + Math.abs(d[i + 2] - 104) < 60) red++;
+    hash = (hash * 31 + (d[i] >> 3) * 1024 + (d[i + 1] >> 3) * 32 + (d[i + 2] >> 3)) | 0;
+  }
+  const n = d.length / 4; m /= n;
+  return {std: Math.sqrt(Math.max(q / n - m * m, 0)), red: red, hash: hash};
+}"""
+"""Downscaled canvas read in the page: grey-level spread, gizmo-red pixels, a hash of the image."""
+SETTLED_S = 1.0
 
-    The URL the command prints is opened as soon as it is printed. "Non-blank" = the scene area
-    of a screenshot has a grey-level standard deviation above 5 (an empty canvas has ~0); the
-    screenshot itself is slow under software WebGL, so this is an upper bound.
-    """
-    from PIL import Image  # noqa: PLC0415
 
-    page = context.new_page()
-    page.set_content("<p>warm-up</p>")
-    page.screenshot()  # the context's first screenshot is slow: do not count it
+def _demo_command(port: int, scene: str) -> list[str]:
+    command = [sys.executable, "-m", "cobotsafety", "demo", "--port", str(port)]
+    return command + ([] if scene == "planar" else ["--robot", scene])
+
+
+def _tab_timeline(page, start: float, timeout_s: float = 240.0) -> dict:
+    """Seconds from ``start`` to the status shown, the first frame and the settled canvas."""
+    out: dict = {}
+    deadline = time.perf_counter() + timeout_s
+    page.get_by_text("EE x=").first.wait_for(timeout=timeout_s * 1e3)
+    out["status_s"] = time.perf_counter() - start
+    last_hash, same_since = None, None
+    while time.perf_counter() < deadline:
+        probe = page.evaluate(CANVAS_PROBE_JS)
+        now = time.perf_counter()
+        if probe is not None and probe["std"] > 5.0 and probe["red"] >= 3:
+            out.setdefault("first_frame_s", now - start)
+            if probe["hash"] != last_hash:
+                last_hash, same_since = probe["hash"], now
+            elif now - same_since >= SETTLED_S:
+                out["settled_s"] = same_since - start
+                return out
+        time.sleep(0.05)
+    return out
+
+
+def _startup(playwright, chromium: str, port: int, scene: str, tabs: int) -> dict:
+    """Launch ``cobotsafety demo`` for ``scene``, open its URL in ``tabs`` tabs at once (a fresh
+    browser each), time each tab; then count the first client's initial scene on a second run."""
+    import threading  # noqa: PLC0415
+
+    from cobotsafety.app.wire_probe import WireProbe  # noqa: PLC0415
+
+    browser = playwright.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
+    pages = []
+    for _ in range(tabs):
+        context = browser.new_context(viewport={"width": 1200, "height": 800})
+        page = context.new_page()
+        page.set_content("<p>warm-up</p>")
+        page.screenshot()  # a context's first screenshot is slow: not counted
+        pages.append(page)
+    result: dict = {"scene": scene, "tabs": tabs, "load_average_1min": round(os.getloadavg()[0], 2)}
     start = time.perf_counter()
-    process = subprocess.Popen([sys.executable, "-m", "cobotsafety", "demo", "--port", str(port)],
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    process = subprocess.Popen(_demo_command(port, scene), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         for line in process.stdout:  # the user opens the URL the command prints
             if "open http" in line:
                 break
-        page.goto(line.split("open ", 1)[1].strip(), timeout=60000)
-        page.get_by_text("EE x=").wait_for(timeout=60000)
-        status_s = time.perf_counter() - start
-        while True:
-            shot = page.screenshot(clip={"x": 0, "y": 0, "width": 780, "height": 800}, timeout=60000)
-            if np.asarray(Image.open(io.BytesIO(shot)).convert("L")).std() > 5.0:
-                return status_s, time.perf_counter() - start
-            time.sleep(0.05)
+        result["url_s"] = round(time.perf_counter() - start, 2)
+        url = line.split("open ", 1)[1].strip()
+        timelines: list[dict] = [{} for _ in pages]
+        for page in pages:
+            page.goto(url, wait_until="commit", timeout=240_000)  # all tabs navigate before any is awaited
+        for i, page in enumerate(pages):
+            timelines[i] = {key: round(value, 2) for key, value in _tab_timeline(page, start).items()}
+        result["per_tab"] = timelines
     finally:
-        page.close()
         process.terminate()
         process.wait(timeout=10)
+        browser.close()
+    process = subprocess.Popen(_demo_command(port, scene), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        for line in process.stdout:
+            if "open http" in line:
+                break
+        probe = WireProbe(line.split("open ", 1)[1].strip()).start()
+        quiet = threading.Event()
+        last = -1
+        while not quiet.wait(1.5):  # the initial scene: the gizmo (made last) in, then the stream
+            counts = probe.counts()  # falls to the idle trickle (~15 kB per 1.5 s, counted too)
+            gizmo = counts["types"].get("TransformControlsMessage", 0) > 0
+            if gizmo and counts["bytes"] - last < 30_000 and last >= 0:
+                break
+            last = counts["bytes"]
+        result["initial_messages"] = int(sum(counts["types"].values()))
+        result["initial_kB"] = round(counts["bytes"] / 1e3, 1)
+        probe.stop()
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+    return result
 
 
 def _phase(app, clients: int, moving: bool, seconds: float) -> dict:
@@ -160,13 +245,22 @@ def run(args: argparse.Namespace) -> dict:
 
     result: dict = {"name": "app"}
     with sync_playwright() as playwright:
+        if not args.skip_startup:
+            result["startup"] = [_startup(playwright, args.chromium, free_local_port(), scene, args.tabs)
+                                 for scene in args.startup_scenes.split(",")]
+            for entry in result["startup"]:
+                first = [tab.get("first_frame_s") for tab in entry["per_tab"]]
+                result[f"startup_{entry['scene']}"] = (
+                    f"URL {entry['url_s']} s, status {[tab.get('status_s') for tab in entry['per_tab']]} s, "
+                    f"first frame {first} s, settled {[tab.get('settled_s') for tab in entry['per_tab']]} s; "
+                    f"{entry['initial_messages']} messages, {entry['initial_kB']} kB; load {entry['load_average_1min']}")
+        if args.startup_only:
+            result["load_average_1min"] = round(os.getloadavg()[0], 2)
+            result["machine"] = machine_description()
+            return result
         context = playwright.chromium.launch_persistent_context(
             tempfile.mkdtemp(prefix="cobotsafety-bench-"), executable_path=args.chromium, headless=True,
             args=CHROMIUM_ARGS, viewport={"width": 1200, "height": 800})
-        if not args.skip_startup:
-            status_s, frame_s = _first_frame_s(context, free_local_port())
-            result["startup_to_status_s"] = round(status_s, 2)
-            result["startup_to_first_frame_s"] = round(frame_s, 2)
 
         app = DemoApp(DemoConfig(port=free_local_port(), rate_hz=args.rate)).start()
         try:
@@ -198,6 +292,7 @@ def run(args: argparse.Namespace) -> dict:
 
             if args.robot != "planar":
                 app.switch_scene(args.robot)
+                app.ensure_replay()
                 page.reload()
                 page.get_by_text("EE x=").wait_for(timeout=60000)
                 time.sleep(2.0)

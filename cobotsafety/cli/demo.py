@@ -44,14 +44,17 @@ def run(args: argparse.Namespace) -> int:
     with announce_compilation("cobotsafety demo"):
         from cobotsafety.app.demo_app import DemoApp, DemoConfig  # noqa: PLC0415 - heavy (viser)
 
+        # The URL as soon as the server listens (the page loads while the scene is built).
         app = DemoApp(DemoConfig(scene=scene, robot=args.robot, replay=args.replay, host=args.host,
-                                 port=args.port, rate_hz=args.rate)).start()
+                                 port=args.port, rate_hz=args.rate),
+                      announce=lambda url: print(f"cobotsafety demo: open {url}", flush=True)).start()
         problem = app.wait_until_running()  # the first step and frame compile what is left
     try:
         if problem:
             raise CobotSafetyError(f"{problem}; the demo is stopped")
         for line in app.start_lines():
-            print(f"cobotsafety demo: {line}", flush=True)
+            if line != f"open {app.url}":  # announced already
+                print(f"cobotsafety demo: {line}", flush=True)
         while True:
             time.sleep(HEALTH_CHECK_S)
             problem = app.failure()

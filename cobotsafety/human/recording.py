@@ -136,7 +136,8 @@ def _header(path: Path, line: str) -> dict:
 
 
 DEMO_RECORDING = "reach-over"
-"""The bundled recording the demo and the sensor bench replay (the reach-over stress case)."""
+"""The bundled recording the sensor bench replays (the reach-over stress case); the demo's
+default is paper 2's experiment 1 (``cobotsafety.app.demo_app.DEFAULT_RECORDING``)."""
 
 
 def bundled_recording(name: str = DEMO_RECORDING) -> Path:

@@ -45,7 +45,9 @@ import numpy as np
 import viser
 
 from cobotsafety.app.access import ServerGuard, TokenGate, Verdict, check_bindable
+from cobotsafety.app.camera import lock_orbit
 from cobotsafety.app.control_loop import ControlLoop, LoopSettings
+from cobotsafety.app.gizmo import add_gizmo
 from cobotsafety.app.scenes import make_scene
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.trial.colour_task import COLOURS, VERDICTS
@@ -189,9 +191,8 @@ class TrialServer:
         self.operator_course_nodes = CourseNodes(self.operator_server, self.course)
         self.operator_view = mirror_view(self.operator_server, self.teleop, self.scene.dim)
         self._make_participant_gui()
-        self.gizmo = self.server.scene.add_transform_controls(
-            "/gizmo", scale=0.15, line_width=4.0, active_axes=self.scene.gizmo_axes, disable_rotations=True,
-            depth_test=False, position=tuple(self.teleop.p_base_ee_m))
+        self.gizmo = add_gizmo(self.server, self.scene.gizmo_axes, self.teleop.p_base_ee_m)  # the demo's handle
+        lock_orbit(self.server)  # the view is part of the task (issue 25 item 5)
         self.device_feeder = None
         if device is not None:
             from cobotsafety.app.input_device import DeviceFeeder  # noqa: PLC0415
@@ -235,7 +236,7 @@ class TrialServer:
         if self.answers != "buttons":
             return
         for colour in COLOURS:
-            button = gui.add_button(colour.capitalize(), visible=False)
+            button = gui.add_button(colour.capitalize(), visible=False, color="gray")  # no ink colour of its own
 
             @button.on_click
             def _(_event, colour=colour) -> None:
@@ -314,8 +315,8 @@ class TrialServer:
                 f"{elapsed:.0f} s, triangles touched {len(run.errors)}{words}")
 
     def _word_html(self, stimulus, size_px: int) -> str:
-        return (f'<div style="font-size:{size_px}px;font-weight:bold;color:{INK_RGB[stimulus.ink]};'
-                f'padding:4px 12px">{stimulus.word.upper()}</div>')
+        return (f'<div style="font-size:{size_px}px;font-weight:bold;padding:0 0.4em;'
+                f'color:{INK_RGB[stimulus.ink]}">{stimulus.word.upper()}</div>')
 
     def _refresh_operator(self) -> None:
         plan_text, progress = self._plan_text(), self._operator_progress()
