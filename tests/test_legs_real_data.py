@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cobotsafety.sensors import train_legs
+from cobotsafety.tools import train_legs
 from cobotsafety.tools.evaluate_legs import evaluate_all
 from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
 from cobotsafety.sensors.legs import detect_legs, estimate_background, learned_legs
