@@ -225,9 +225,9 @@ def test_a_hidden_leg_is_carried_beside_the_seen_one_then_let_go():
             assert person.carried_leg_xy_m.shape == (0, 2), t
 
 
-def test_each_leg_keeps_its_slot_when_the_legs_swap_order():
-    """Two legs seen in either order, then one hidden: the carried leg is the hidden one,
-    whichever index it had in the input."""
+def test_a_lone_leg_fills_the_nearer_slot_and_the_other_is_carried():
+    """Two legs seen (in either order), then one hidden, then the other: the carried leg is
+    always the hidden one, whichever slot the seen one had."""
     tracker = PersonTracker()
     left, right = np.array([1.0, 0.15]), np.array([1.0, -0.15])
     for k in range(6):

@@ -20,9 +20,9 @@ Per scan (``update(t_s, legs_xy_m)``):
    ``leg_pair_distance_m``, a leg left alone being a person too; each starts a tentative track,
    confirmed after ``confirm_after_hits`` measurements.
 5. **Legs carried through short misses** (``_carry_legs``): each track keeps two leg slots,
-   each a leg's position at its last sighting and the track's velocity then. A scan's legs of
-   a track fill the slots whose predicted legs (last position moved on at that velocity) they
-   are nearest (an empty slot costs ``leg_pair_distance_m / 2``); a slot not filled, seen at
+   each a leg's position at its last sighting and the track's velocity then. Two legs of a
+   track in a scan fill both slots; one leg fills the slot whose predicted leg (last position
+   moved on at that velocity) is nearer (an empty slot costs ``leg_pair_distance_m / 2``); a slot not filled, seen at
    most ``leg_carry_s`` ago, is reported in ``Person.carried_leg_xy_m`` at its predicted leg:
    moved with the torso, the mean of a stance leg (still) and a swing leg (twice as fast).
    The torso's velocity at the last sighting, not the track's since: with one leg seen the
@@ -314,12 +314,9 @@ class PersonTracker:
                     guess = predicted[slot]
                     return empty_slot_cost_m if guess is None else math.hypot(point[0] - guess[0], point[1] - guess[1])
 
-                if len(points) == 1:
-                    slots = [0 if cost(points[0], 0) <= cost(points[0], 1) else 1]
-                else:
-                    straight = cost(points[0], 0) + cost(points[1], 1)
-                    crossed = cost(points[0], 1) + cost(points[1], 0)
-                    slots = [0, 1] if straight <= crossed else [1, 0]
+                # Two legs fill both slots (which is which does not matter: nothing is carried
+                # and both predictions restart from them); one leg fills the nearer.
+                slots = [0 if cost(points[0], 0) <= cost(points[0], 1) else 1] if len(points) == 1 else [0, 1]
                 for point, slot in zip(points, slots):
                     slot_xy[track, slot] = point
                     slot_v[track, slot] = velocities[track]
