@@ -48,6 +48,11 @@ from cobotsafety.estimation.constant_velocity import ConstantVelocityKalman, Kal
 from cobotsafety.sensors.person_kernel import correct_in_place, leg_gate, predict_in_place
 
 
+#: Shape (0, 2), read-only: no legs (shared by every person with none carried).
+_NO_LEGS = np.zeros((0, 2))
+_NO_LEGS.flags.writeable = False
+
+
 @dataclass(frozen=True)
 class PersonTrackerParams:
     """Tracker settings (units in the names)."""
@@ -102,7 +107,7 @@ class Person:
     confirmed: bool
     time_since_seen_s: float
     """Time since the person's last measurement [s] (0 when seen in this scan)."""
-    carried_leg_xy_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    carried_leg_xy_m: np.ndarray = field(default_factory=lambda: _NO_LEGS)
     """Shape (0..2, 2), the legs not seen in this scan but seen within ``leg_carry_s``, moved
     on from their last sighting at the torso's velocity then [m] (module docstring, step 5)."""
 
@@ -164,12 +169,10 @@ class PersonTracker:
         self._ids = np.zeros(0, dtype=int)
         self._hits = np.zeros(0, dtype=int)
         self._last_seen_s = np.zeros(0)
-        self._leg_xy_m = np.zeros((0, 2, 2))
-        """Per track and leg slot: where the leg was last seen [m] (NaN: never)."""
-        self._leg_v_m_s = np.zeros((0, 2, 2))
-        """Per track and leg slot: the track's velocity when the leg was last seen [m/s]."""
-        self._leg_seen_s = np.zeros((0, 2))
-        """Per track and leg slot: when that leg was last seen [s] (-inf: never)."""
+        self._empty_slot_cost_m = params.leg_pair_distance_m / 2
+        self._leg_slots: list[list[tuple | None]] = []
+        """Per track, two leg slots: None (never seen) or the leg's last sighting
+        ``(x_m, y_m, track vx_m_s, track vy_m_s, t_s)`` (plain floats: a few per scan)."""
         self._next_id = 1
         self._t_s = -np.inf
         self.births = 0
@@ -296,34 +299,26 @@ class PersonTracker:
         """Fill the leg slots of every track (already predicted to ``t_s``) with its legs of this
         scan; returns, per track, the slots carried (module docstring, step 5) [m]."""
         carry_from_s = t_s - self.params.leg_carry_s
-        empty_slot_cost_m = self.params.leg_pair_distance_m / 2
-        velocities = self._filter.velocity.tolist()
-        slot_xy, slot_v, seen_s = self._leg_xy_m, self._leg_v_m_s, self._leg_seen_s
+        points = legs.tolist()
         carried = []
-        for track, group in enumerate(legs_of_track):
-            predicted = []  # each slot's leg at t_s: its last sighting moved on at the torso's velocity then
-            for slot in (0, 1):
-                (x, y), (vx, vy) = slot_xy[track, slot].tolist(), slot_v[track, slot].tolist()
-                dt_s = t_s - seen_s[track, slot]
-                predicted.append((x + vx * dt_s, y + vy * dt_s) if x == x else None)
-            filled = [False, False]
-            if group:
-                points = legs[group].tolist()
-
-                def cost(point, slot):
-                    guess = predicted[slot]
-                    return empty_slot_cost_m if guess is None else math.hypot(point[0] - guess[0], point[1] - guess[1])
-
-                # Two legs fill both slots (which is which does not matter: nothing is carried
-                # and both predictions restart from them); one leg fills the nearer.
-                slots = [0 if cost(points[0], 0) <= cost(points[0], 1) else 1] if len(points) == 1 else [0, 1]
-                for point, slot in zip(points, slots):
-                    slot_xy[track, slot] = point
-                    slot_v[track, slot] = velocities[track]
-                    seen_s[track, slot] = t_s
-                    filled[slot] = True
-            carried.append([predicted[slot] for slot in (0, 1)
-                            if not filled[slot] and predicted[slot] is not None and seen_s[track, slot] >= carry_from_s])
+        for slots, group, (vx, vy) in zip(self._leg_slots, legs_of_track, self._filter.velocity.tolist()):
+            if len(group) == 2:  # both slots (which is which never shows: nothing carried, both restart)
+                (x0, y0), (x1, y1) = points[group[0]], points[group[1]]
+                slots[0], slots[1] = (x0, y0, vx, vy, t_s), (x1, y1, vx, vy, t_s)
+                carried.append([])
+                continue
+            # Each slot's leg at t_s: its last sighting moved on at the torso's velocity then.
+            predicted = [None if slot is None else (slot[0] + slot[2] * (t_s - slot[4]), slot[1] + slot[3] * (t_s - slot[4]))
+                         for slot in slots]
+            filled = -1
+            if group:  # one leg: the nearer slot (an empty one costs half the pairing distance)
+                x, y = points[group[0]]
+                cost = [self._empty_slot_cost_m if guess is None else math.hypot(x - guess[0], y - guess[1])
+                        for guess in predicted]
+                filled = 0 if cost[0] <= cost[1] else 1
+                slots[filled] = (x, y, vx, vy, t_s)
+            carried.append([predicted[k] for k in (0, 1)
+                            if k != filled and slots[k] is not None and slots[k][4] >= carry_from_s])
         return carried
 
     def _predict(self, t_s: float) -> None:
@@ -353,7 +348,7 @@ class PersonTracker:
         f = self._filter
         f.position, f.velocity, f.covariance = f.position[keep], f.velocity[keep], f.covariance[keep]
         self._ids, self._hits, self._last_seen_s = self._ids[keep], self._hits[keep], self._last_seen_s[keep]
-        self._leg_xy_m, self._leg_v_m_s, self._leg_seen_s = self._leg_xy_m[keep], self._leg_v_m_s[keep], self._leg_seen_s[keep]
+        self._leg_slots = [slots for slots, kept in zip(self._leg_slots, keep.tolist()) if kept]
         return keep
 
     def _birth(self, t_s: float, positions_m: np.ndarray, legs_m: list[np.ndarray]) -> None:
@@ -361,13 +356,9 @@ class PersonTracker:
         m = positions_m.shape[0]
         if m == 0:
             return
-        slot_xy, seen_s = np.full((m, 2, 2), np.nan), np.full((m, 2), -np.inf)
-        for i, group in enumerate(legs_m):
-            slot_xy[i, :len(group)] = group
-            seen_s[i, :len(group)] = t_s
-        self._leg_xy_m = np.concatenate([self._leg_xy_m, slot_xy])
-        self._leg_v_m_s = np.concatenate([self._leg_v_m_s, np.zeros((m, 2, 2))])  # a new track's velocity
-        self._leg_seen_s = np.concatenate([self._leg_seen_s, seen_s])
+        for group in legs_m:  # a new track's velocity is zero
+            slots = [(x, y, 0.0, 0.0, t_s) for x, y in group.tolist()]
+            self._leg_slots.append(slots + [None] * (2 - len(slots)))
         new = ConstantVelocityKalman(t_s, positions_m, self.params.noise)
         if self._filter is None or self._ids.size == 0:
             self._filter = new
@@ -396,7 +387,7 @@ class PersonTracker:
                 leg_xy_m=legs[group] if group else np.zeros((0, 2)),
                 confirmed=bool(confirmed[i]),
                 time_since_seen_s=float(t_s - self._last_seen_s[i]),
-                carried_leg_xy_m=np.array(kept).reshape(-1, 2),
+                carried_leg_xy_m=np.array(kept) if kept else _NO_LEGS,
             )
             for i, (group, kept) in enumerate(zip(legs_of_track, carried))
         ]
