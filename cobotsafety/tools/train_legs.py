@@ -55,6 +55,7 @@ from cobotsafety.sensors.leg_classifier import LegForest
 from cobotsafety.sensors.leg_clusters import segment
 from cobotsafety.sensors.leg_features import cluster_features
 from cobotsafety.sensors.legs import estimate_background, scored_candidates
+from cobotsafety.sensors.person_tracker import PersonTrackerParams
 from cobotsafety.sensors.rosbag_io import read_laser_scans, read_pose_arrays
 from cobotsafety.tools.leg_scoring import detector_detections, pipeline_detections, score_scans, summary
 from cobotsafety.tools.synthetic_legs import leg_scans, scene_examples, walking_examples
@@ -171,16 +172,17 @@ def score_bag(scans: list[tuple[LaserScan, np.ndarray | None]], detect) -> dict:
     return score_scans(detector_detections([s for s, _ in scans], detect), [labels for _, labels in scans], CV_RANGE_M)
 
 
-def score_pipeline(scans: list[tuple[LaserScan, np.ndarray | None]], detect) -> dict:
-    """``leg_scoring`` counts of the pipeline (``detect`` -> ``PersonTracker``, its confirmed
-    people's legs, seen or carried) on one bag's (scan, labels), in the bag's time order."""
-    return score_scans(pipeline_detections([s for s, _ in scans], detect), [labels for _, labels in scans],
+def score_pipeline(scans: list[tuple[LaserScan, np.ndarray | None]], detect,
+                   tracker: PersonTrackerParams = PersonTrackerParams()) -> dict:
+    """``leg_scoring`` counts of the pipeline (``detect`` -> ``PersonTracker(tracker)``, its
+    confirmed people's legs, seen or carried) on one bag's (scan, labels), in time order."""
+    return score_scans(pipeline_detections([s for s, _ in scans], detect, tracker), [labels for _, labels in scans],
                        CV_RANGE_M)
 
 
-def cross_validate(bags: dict, thresholds: np.ndarray) -> dict:
-    """Leave-one-bag-out: per held-out bag and background setting, ``leg_scoring`` counts per
-    threshold for each of ``SOURCES`` (the detector alone, the detector + tracker pipeline)."""
+def held_out_candidates(bags: dict) -> dict:
+    """Leave-one-bag-out: per held-out bag and background setting, each scan's candidate legs
+    and leg probabilities (``scored_candidates``) by a model trained without that bag's group."""
     groups = sorted({group_of(n) for n in bags})
     result = {}
     for held_out in groups:
@@ -190,17 +192,29 @@ def cross_validate(bags: dict, thresholds: np.ndarray) -> dict:
             scans = bags[name]
             background = estimate_background([s for s, _ in scans])
             for setting, bg in zip(SETTINGS, (background, None)):
-                # Each scan's candidates scored once; a threshold keeps those above it, exactly
-                # what learned_legs(..., threshold_probability=t) returns.
-                scored = {id(s): scored_candidates(s, CV_RANGE_M, bg, forest=forest) for s, _ in scans}
-                result[(name, setting)] = {"detector": [], "pipeline": []}
-                for t in thresholds:
-                    def detect(scan, t=t):
-                        axes_m, probability = scored[id(scan)]
-                        return axes_m[probability > t]
-                    result[(name, setting)]["detector"].append(score_bag(scans, detect))
-                    result[(name, setting)]["pipeline"].append(score_pipeline(scans, detect))
+                result[(name, setting)] = [scored_candidates(s, CV_RANGE_M, bg, forest=forest) for s, _ in scans]
         print(f"  fold {held_out} done", flush=True)
+    return result
+
+
+def cross_validate(bags: dict, thresholds: np.ndarray, candidates: dict | None = None,
+                   tracker: PersonTrackerParams = PersonTrackerParams()) -> dict:
+    """Per held-out bag and background setting, ``leg_scoring`` counts per threshold for each of
+    ``SOURCES`` (the detector alone; the pipeline: the detector + ``PersonTracker(tracker)``).
+    ``candidates``: ``held_out_candidates(bags)`` (computed when None). A threshold keeps the
+    candidates above it: exactly what ``learned_legs(..., threshold_probability=t)`` returns."""
+    candidates = held_out_candidates(bags) if candidates is None else candidates
+    result = {}
+    for (name, setting), scored in candidates.items():
+        scans = bags[name]
+        index = {id(scan): i for i, (scan, _) in enumerate(scans)}
+        result[(name, setting)] = {"detector": [], "pipeline": []}
+        for t in thresholds:
+            def detect(scan, t=t):
+                axes_m, probability = scored[index[id(scan)]]
+                return axes_m[probability > t]
+            result[(name, setting)]["detector"].append(score_bag(scans, detect))
+            result[(name, setting)]["pipeline"].append(score_pipeline(scans, detect, tracker))
     return result
 
 
