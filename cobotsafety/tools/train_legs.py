@@ -180,10 +180,11 @@ def score_pipeline(scans: list[tuple[LaserScan, np.ndarray | None]], detect,
                        CV_RANGE_M)
 
 
-def held_out_candidates(bags: dict) -> dict:
+def held_out_candidates(bags: dict, groups: list[str] | None = None) -> dict:
     """Leave-one-bag-out: per held-out bag and background setting, each scan's candidate legs
-    and leg probabilities (``scored_candidates``) by a model trained without that bag's group."""
-    groups = sorted({group_of(n) for n in bags})
+    and leg probabilities (``scored_candidates``) by a model trained without that bag's group
+    (every group of ``bags``, or those of ``groups``: one model each)."""
+    groups = sorted({group_of(n) for n in bags}) if groups is None else groups
     result = {}
     for held_out in groups:
         train = [n for n in bags if group_of(n) != held_out]
@@ -219,8 +220,8 @@ def cross_validate(bags: dict, thresholds: np.ndarray, candidates: dict | None =
 
 
 def print_curves(cv: dict, thresholds: np.ndarray) -> None:
-    """Per held-out bag and threshold: recall / false legs per scan in the labelled sector, of
-    the detector and of the pipeline."""
+    """Per held-out bag and threshold: recall / false legs per scan in the labelled sector /
+    anywhere, of the detector and of the pipeline."""
     print("threshold | " + " | ".join(f"{n} ({s}) detector ; pipeline" for n, s in cv))
     for i, t in enumerate(thresholds):
         cells = []
@@ -229,7 +230,7 @@ def print_curves(cv: dict, thresholds: np.ndarray) -> None:
             for source in SOURCES:
                 c = sources[source][i]
                 recall = f"{c['found'] / c['labelled']:.3f}" if c["labelled"] else "-"
-                cell.append(f"{recall} / {c['false_in_sector'] / c['scans']:.2f}")
+                cell.append(f"{recall} / {c['false_in_sector'] / c['scans']:.2f} / {c['false'] / c['scans']:.2f}")
             cells.append(" ; ".join(cell))
         print(f"{t} | " + " | ".join(cells))
 
@@ -297,7 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--curves", action="store_true",
-                        help="print recall / false legs per scan in the labelled sector at every threshold")
+                        help="print recall / false legs per scan (in the labelled sector / anywhere) at every threshold")
     parser.add_argument("--no-save", action="store_true",
                         help="cross-validate and print the held-out table only (no final model written)")
     args = parser.parse_args(argv)
