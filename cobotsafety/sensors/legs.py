@@ -103,12 +103,11 @@ def check_scan_and_range(scan: LaserScan, max_range_m: float, background: np.nda
     if background.shape != scan.ranges.shape:
         raise ValueError(f"detect_legs: background must have the scan's shape {scan.ranges.shape}, "
                          f"got {background.shape}")
-    if (background > -np.inf).all():  # False for NaN and -inf
-        return background
-    bad = ~(background > -np.inf)
-    if bad.any():
-        raise ValueError(f"detect_legs: background must be a range or +inf (open space) per beam; beam "
-                         f"{int(np.argmax(bad))} is {background[np.argmax(bad)]} ({int(bad.sum())} such beams)")
+    usable = background > -np.inf  # False for NaN and -inf
+    if not usable.all():
+        beam = int(np.argmin(usable))
+        raise ValueError(f"detect_legs: background must be a range or +inf (open space) per beam; beam {beam} "
+                         f"is {background[beam]} ({int(np.count_nonzero(~usable))} such beams)")
     return background
 
 
