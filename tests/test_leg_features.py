@@ -43,6 +43,26 @@ def test_segmentation_splits_at_jumps_and_skips_no_returns():
     assert abs(np.hypot(*cx[0]) - 2.0) < 0.01
 
 
+def split_reference(x, y, jump_m, min_points):
+    """The oracle of ``segment``'s compiled split: numpy over the gaps between consecutive points."""
+    gap = np.hypot(np.diff(x), np.diff(y)) >= jump_m
+    starts = np.concatenate([[0], np.flatnonzero(gap) + 1]).astype(np.int64)
+    stops = np.concatenate([np.flatnonzero(gap) + 1, [x.size]]).astype(np.int64)
+    keep = stops - starts >= min_points
+    return starts[keep], stops[keep]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(st.floats(0.05, 8.0), st.sampled_from([0.0, np.nan, np.inf])), min_size=2, max_size=300),
+       st.floats(0.001, 0.05), st.floats(0.01, 1.0), st.integers(1, 5))
+def test_split_equals_the_numpy_reference(ranges, inc, jump_m, min_points):
+    clusters = segment(scan_of(ranges, inc), jump_m, min_points)
+    starts, stops = split_reference(clusters.x_m, clusters.y_m, jump_m, min_points) if clusters.x_m.size else ([], [])
+    np.testing.assert_array_equal(clusters.starts, starts)
+    np.testing.assert_array_equal(clusters.stops, stops)
+    assert clusters.starts.dtype == clusters.stops.dtype == np.int64
+
+
 def centroids_by_loop(clusters):
     """The oracle: each cluster's own returns, averaged one cluster at a time."""
     return np.array([[clusters.x_m[a:b].mean(), clusters.y_m[a:b].mean()]

@@ -1,8 +1,11 @@
-"""The leg detectors on the real, hand-labelled scans of ../shared/data/leg_tracker.
+"""The leg detectors and the detector + tracker pipeline on the real, hand-labelled scans of the
+leg_tracker bags (../shared/data, or the excerpt in tests/data on a fresh clone).
 
 The bundled forest was trained on these bags, so its own figures on them are optimistic; the
-thresholds here are checked the way the training report's cross-validation checks them: a
-forest trained (same recipe) without the bag it is scored on.
+figures here are the cross-validation's (``train_legs``): a forest trained (same recipe)
+without the bag it scores, at the threshold the recall-first rule (docs/leg_recall.md) gives
+without that bag. The aim (issue 24): recall >= 0.90 at <= 0.5 false legs per scan in the
+labelled sector (leg_tracker labels every leg cluster within +-15 deg and 5 m, nothing else).
 """
 
 from __future__ import annotations
@@ -10,10 +13,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cobotsafety.sensors import train_legs
+from cobotsafety.sensors.leg_classifier import bundled_forest
+from cobotsafety.sensors.legs import detect_legs
+from cobotsafety.sensors.person_tracker import PersonTrackerParams
+from cobotsafety.tools import train_legs
 from cobotsafety.tools.evaluate_legs import evaluate_all
-from cobotsafety.sensors.leg_classifier import LegForest, bundled_forest
-from cobotsafety.sensors.legs import detect_legs, estimate_background, learned_legs
+from cobotsafety.tools.leg_scoring import summary
+
+THRESHOLDS = np.array(train_legs.THRESHOLDS)
+P1, P2, NEG = "positive_1_extracted.bag", "positive_2_extracted.bag", "negative_2.bag"
+PRECISE = {"background": 0.04, "no_background": 0.6}
+"""The thresholds before (tuned for precision)."""
+
+
+def at(threshold: float) -> int:
+    return int(np.flatnonzero(np.isclose(THRESHOLDS, threshold))[0])
 
 
 @pytest.fixture(scope="module")
@@ -21,76 +35,113 @@ def bags(shared_data):
     return train_legs.load_bags(shared_data / "leg_tracker")
 
 
-_HELD_OUT: dict[tuple[str, ...], LegForest] = {}
+@pytest.fixture(scope="module")
+def fold(bags):
+    """``fold(group)``: the held-out candidates of one group's bags, by a forest trained without
+    them (trained on first use: each test's setup trains at most one, under pytest's timeout)."""
+    cache: dict[str, dict] = {}
+
+    def candidates_of(group: str) -> dict:
+        if group not in cache:
+            cache[group] = train_legs.held_out_candidates(bags, [group])
+        return cache[group]
+    return candidates_of
 
 
-def held_out_forest(bags, held_out: list[str]) -> LegForest:
-    """The training recipe without ``held_out``, the bundled thresholds (trained once per session)."""
-    key = tuple(held_out)
-    if key not in _HELD_OUT:
-        names = [n for n in bags if n not in held_out]
-        bundled = bundled_forest()
-        _HELD_OUT[key] = LegForest.from_sklearn(train_legs.fit(*train_legs.training_set(bags, names)),
-                                                bundled.threshold_probability,
-                                                bundled.threshold_probability_no_background)
-    return _HELD_OUT[key]
+@pytest.fixture(scope="module")
+def cv(bags, fold):
+    """The cross-validation's counts of the two positive bags."""
+    return train_legs.cross_validate(bags, THRESHOLDS, fold(P1) | fold(P2))
 
 
-@pytest.mark.parametrize("held, labelled", [("positive_1_extracted.bag", 324), ("positive_2_extracted.bag", 116)])
-def test_unseen_labelled_bag_with_a_background(bags, held, labelled):
-    """Trained without the bag (the other positive bag, negative_2, the rendered examples),
-    scored on it (6 m, per-beam background): the aim's recall. False detections are counted
-    where the labels are complete: leg_tracker labelled every cluster within +-15 deg and 5 m
-    of the scanner and nothing elsewhere (positive_2 has unlabelled people beside the sector)."""
-    forest = held_out_forest(bags, [held])
-    scans = bags[held]
-    background = estimate_background([s for s, _ in scans])
-    sector = []
-
-    def detect(scan):
-        legs = learned_legs(scan, 6.0, background, forest=forest)
-        sector.append(legs[(np.abs(np.arctan2(legs[:, 1], legs[:, 0])) <= np.radians(15.0))
-                           & (np.hypot(legs[:, 0], legs[:, 1]) <= 5.0)])
-        return legs
-
-    score = train_legs.score_bag(scans, detect)
-    assert score["labelled"] == labelled
-    assert score["found"] / score["labelled"] >= 0.85
-    false_in_sector = 0
-    for (_, labels), legs in zip(scans, sector):
-        if legs.size:
-            far = np.linalg.norm(legs[:, None] - labels[None], axis=-1).min(axis=1) > train_legs.HIT_RADIUS_M
-            false_in_sector += int(far.sum())
-    assert false_in_sector / score["scans"] <= 0.1
-    if held == "positive_1_extracted.bag":  # few people outside the sector there
-        assert score["false"] / score["scans"] <= 0.5
+@pytest.fixture(scope="module")
+def table(cv):
+    return train_legs.held_out_table(cv, THRESHOLDS)
 
 
-@pytest.mark.parametrize("held, min_recall", [("positive_1_extracted.bag", 0.55), ("positive_2_extracted.bag", 0.85)])
-def test_unseen_labelled_bag_without_a_background(bags, held, min_recall):
-    """No background (a moving scanner has none), 6 m, the bundled no-background threshold, a
-    model trained without the bag: false detections <= 0.5 per scan counted everywhere (the
-    room's chair and table legs are in every scan), torso median <= 0.10 m. Recall: the aim
-    (0.85) where the model was trained on positive_1's 324 labelled legs; holding positive_1
-    out leaves positive_2's 116, and it finds ~62 % (its misses are mostly legs of walking
-    pairs, which positive_2 hardly shows)."""
-    forest = held_out_forest(bags, [held])
-    score = train_legs.score_bag(bags[held], lambda s: learned_legs(s, 6.0, None, forest=forest))
-    assert score["found"] / score["labelled"] >= min_recall
-    assert score["false"] / score["scans"] <= 0.5
-    assert np.median(score["torso_errors_m"]) <= 0.10
+@pytest.mark.parametrize("held", [P1, P2])
+def test_the_lowest_thresholds_find_more_than_the_precision_ones(bags, fold, held):
+    """One unseen bag (its forest trained first, alone), the detector alone: at the bottom of
+    the threshold grid, no less recall than at today's precision thresholds (0.04 with a
+    background, 0.6 without) in either setting, and without a background, on positive_1 (the
+    walking pairs positive_2 hardly shows), 0.2 more."""
+    counts = train_legs.cross_validate(bags, THRESHOLDS, fold(held))
+    for setting, precise in PRECISE.items():
+        low = summary(counts[(held, setting)]["detector"][1])  # 0.01, the lowest the rule can check
+        assert low["recall"] >= summary(counts[(held, setting)]["detector"][at(precise)])["recall"]
+    if held == P1:
+        curve = counts[(P1, "no_background")]["detector"]
+        assert summary(curve[1])["recall"] >= summary(curve[at(0.6)])["recall"] + 0.2
 
 
-def test_nobody_in_view_gives_fewer_detections_than_the_paper_rule(bags):
-    """Trained without the right-hand scanner of the negative bag, scored on it (no background:
-    the scanners move). Chair and table legs remain leg-like: ~2 per scan at 6 m (the paper's
-    rule: ~10; shape alone: ~3), the weak point of a single-scan detector without a background."""
+@pytest.mark.parametrize("held, setting", [
+    (P1, "background"), (P1, "no_background"),
+    pytest.param(P2, "background", marks=pytest.mark.xfail(
+        strict=True, reason="aim missed: 0.85 recall (12 % of positive_2's labelled legs are on the per-beam "
+                            "background, someone standing still; confirmation costs the first scans)")),
+    (P2, "no_background")])
+def test_the_pipeline_meets_the_aim_on_every_unseen_bag(table, held, setting):
+    """Detector + tracker, on a bag no forest and no threshold choice saw: recall >= 0.90 of the
+    labelled legs at <= 0.5 false legs per scan in the labelled sector; torso <= 10 cm."""
+    row = table[f"{held} ({setting})"]
+    assert row["chosen_without_this_bag"]
+    pipeline = row["pipeline"]
+    assert pipeline["false_in_sector_per_scan"] <= train_legs.MAX_FALSE_PER_SCAN
+    assert pipeline["torso_error_median_m"] <= 0.10
+    assert pipeline["recall"] >= train_legs.RECALL_AIM
+
+
+def test_the_one_miss_is_a_near_one(table):
+    """positive_2 with a background: the recall the pipeline keeps (the aim is 0.90)."""
+    pipeline = table[f"{P2} (background)"]["pipeline"]
+    assert pipeline["recall"] >= 0.83 and pipeline["false_in_sector_per_scan"] <= train_legs.MAX_FALSE_PER_SCAN
+
+
+@pytest.mark.parametrize("setting", train_legs.SETTINGS)
+def test_carrying_legs_through_misses_adds_recall(bags, fold, table, setting):
+    """At each bag's threshold, the tracker with its leg carry finds more labelled legs than the
+    same tracker without it (leg_carry_s = 0: only the legs seen in each scan)."""
+    for held in (P1, P2):
+        row = table[f"{held} ({setting})"]
+        i = int(np.searchsorted(THRESHOLDS, row["threshold"]))
+        without = train_legs.cross_validate(bags, THRESHOLDS[i:i + 1], {(held, setting): fold(held)[(held, setting)]},
+                                            PersonTrackerParams(leg_carry_s=0.0))
+        assert row["pipeline"]["recall"] >= summary(without[(held, setting)]["pipeline"][0])["recall"] + 0.02
+
+
+def test_the_bundled_thresholds_are_the_rules(cv, full_bags):
+    """The rule on both positive folds gives the bundled thresholds (with the full bags; the
+    excerpt's negative bag is subsampled, so its forests differ a little)."""
+    chosen = [float(THRESHOLDS[train_legs.choose_threshold(cv, THRESHOLDS, s)]) for s in train_legs.SETTINGS]
+    assert all(0.0 < t < 1.0 for t in chosen)
+    if full_bags:
+        forest = bundled_forest()
+        assert chosen == [forest.threshold_probability, forest.threshold_probability_no_background]
+
+
+def test_a_cluttered_room_with_nobody_in_it(bags, fold, cv):
+    """The cost of recall: the negative bag's three moving scanners (nobody; chairs and tables
+    at every bearing), scored by a forest that never saw that room: the recall-first threshold
+    raises ~9-13 false legs per scan over the whole 6 m field (~2 at the precision threshold),
+    ~1 in the sector a label would cover. The classifier still tells them apart from legs: at
+    its precision threshold it raises ~2 per scan, the paper's rule ~10."""
+    chosen = train_legs.choose_threshold(cv, THRESHOLDS, "no_background")
+    counts = train_legs.cross_validate(bags, THRESHOLDS[[chosen, at(0.6)]], fold(NEG))
+    for topic in ("left_scan", "rear_scan", "right_scan"):
+        recall_first, precise = (summary(c) for c in counts[(f"{NEG}/{topic}", "no_background")]["detector"])
+        pipeline = summary(counts[(f"{NEG}/{topic}", "no_background")]["pipeline"][0])
+        assert recall_first["labelled"] == 0
+        assert recall_first["false_per_scan"] <= 15.0 and pipeline["false_in_sector_per_scan"] <= 1.5
+        assert precise["false_per_scan"] <= 3.0
+
+
+def test_the_classifier_beats_the_paper_rule_on_nobody(bags, fold):
     held = "negative_2.bag/right_scan"
-    forest = held_out_forest(bags, [held])
-    learned = train_legs.score_bag(bags[held], lambda s: learned_legs(s, 6.0, None, forest=forest))
-    paper = train_legs.score_bag(bags[held], lambda s: detect_legs(s, 6.0, None, method="paper"))
-    assert learned["labelled"] == 0
-    assert learned["false"] / learned["scans"] <= 4.5
+    scans = bags[held]
+    index = {id(scan): i for i, (scan, _) in enumerate(scans)}
+    scored = fold(NEG)[(held, "no_background")]
+    learned = train_legs.score_bag(scans, lambda s: scored[index[id(s)]][0][scored[index[id(s)]][1] > 0.6])
+    paper = train_legs.score_bag(scans, lambda s: detect_legs(s, 6.0, None, method="paper"))
     assert learned["false"] <= 0.5 * paper["false"]
 
 
@@ -102,7 +153,7 @@ def test_evaluate_legs_reports_every_method_and_setting(shared_data):
     for method, bags_ in rows.items():
         m = bags_["positive_2_extracted.bag"]
         assert m["scans"] == 83 and m["labelled"] == 116
-        assert 0.0 <= m["recall"] <= 1.0 and m["false_per_scan"] >= 0.0
+        assert 0.0 <= m["recall"] <= 1.0 and 0.0 <= m["false_in_sector_per_scan"] <= m["false_per_scan"]
     # The bundled forest saw this bag: an upper bound, but it must beat the paper's rule.
     assert rows["learned"]["positive_2_extracted.bag"]["recall"] > rows["paper"]["positive_2_extracted.bag"]["recall"]
     assert rows["learned"]["positive_2_extracted.bag"]["torso_error_median_m"] <= 0.10

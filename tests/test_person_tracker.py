@@ -194,6 +194,94 @@ def test_bad_input_is_refused_with_the_argument_named():
         PersonTrackerParams(confirm_after_hits=0)
     with pytest.raises(ValueError, match="tentative_delete_after_s"):
         PersonTrackerParams(delete_after_s=0.1)  # a tentative track would outlive a confirmed one
+    for bad in (np.nan, -0.1, np.inf):
+        with pytest.raises(ValueError, match="leg_carry_s"):
+            PersonTrackerParams(leg_carry_s=bad)
+
+
+
+def test_a_hidden_leg_is_carried_beside_the_seen_one_then_let_go():
+    """The far leg hidden from t = 1.0 s: the tracker reports it where it was relative to the
+    torso, moved with the torso, for leg_carry_s (0.5 s), then no longer. The true hidden leg
+    swings; the carried one stays within the swing of it."""
+    rng = np.random.default_rng(5)
+    hidden = lambda w, t, leg: leg == 1 and t >= 1.0 - 1e-9
+    _, history = run([straight([0.0, 0.0], [0.6, 0.3])], 2.0, rng, drop=hidden)
+    carry_s = PersonTrackerParams().leg_carry_s
+    for t, persons, truth in history:
+        person = persons[0]
+        p, v = truth[0]
+        if t < 1.0 - 1e-9:
+            assert person.carried_leg_xy_m.shape == (0, 2) and person.all_leg_xy_m.shape == (2, 2)
+        elif abs(t - (1.0 - SCAN_DT_S + carry_s)) < 1e-6:
+            continue  # the last sighting + leg_carry_s: either, by the floats of t
+        elif t < 1.0 - SCAN_DT_S + carry_s:
+            assert person.leg_xy_m.shape == (1, 2) and person.carried_leg_xy_m.shape == (1, 2)
+            hidden_leg = walker_legs(p, v, t)[1]
+            assert np.linalg.norm(person.carried_leg_xy_m[0] - hidden_leg) < 2 * STRIDE_AMPLITUDE_M * 0.67 + 0.03
+            assert np.linalg.norm(person.carried_leg_xy_m[0] - person.leg_xy_m[0]) > HIP_HALF_WIDTH_M
+            np.testing.assert_array_equal(person.all_leg_xy_m, np.vstack([person.leg_xy_m, person.carried_leg_xy_m]))
+        else:
+            assert person.carried_leg_xy_m.shape == (0, 2), t
+
+
+def test_a_lone_leg_fills_the_nearer_slot_and_the_other_is_carried():
+    """Two legs seen (in either order), then one hidden, then the other: the carried leg is
+    always the hidden one, whichever slot the seen one had."""
+    tracker = PersonTracker()
+    left, right = np.array([1.0, 0.15]), np.array([1.0, -0.15])
+    for k in range(6):
+        tracker.update(0.1 * k, np.array([left, right] if k % 2 else [right, left]))
+    person = tracker.update(0.6, right[None])[0]
+    np.testing.assert_allclose(person.carried_leg_xy_m, left[None], atol=1e-9)
+    person = tracker.update(0.7, left[None])[0]
+    np.testing.assert_allclose(person.carried_leg_xy_m, right[None], atol=1e-9)
+
+
+def test_both_legs_lost_are_carried_with_the_coasting_torso():
+    tracker = PersonTracker()
+    v = np.array([1.0, 0.0])
+    for k in range(30):
+        t = k * SCAN_DT_S
+        tracker.update(t, walker_legs(v * t, v, t))
+    seen_t = t
+    for k in range(1, 15):
+        t = seen_t + k * SCAN_DT_S
+        person = tracker.update(t, np.zeros((0, 2)))[0]
+        if abs(t - seen_t - 0.5) < 1e-6:
+            continue
+        if t - seen_t < 0.5:
+            assert person.carried_leg_xy_m.shape == (2, 2)
+            np.testing.assert_allclose(person.carried_leg_xy_m.mean(axis=0), person.p_xy_m, atol=0.05)
+        else:
+            assert person.carried_leg_xy_m.shape == (0, 2)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_carrying_never_changes_the_tracks(seed):
+    """Carried legs are output only: with and without carrying (leg_carry_s = 0), the same
+    tracks, states and seen legs on random walkers with legs hidden and clutter; never more
+    than two legs per person, seen and carried."""
+    rng = np.random.default_rng(seed)
+    carrying, plain = PersonTracker(), PersonTracker(PersonTrackerParams(leg_carry_s=0.0))
+    walkers = [straight(rng.uniform(-3, 3, 2), rng.uniform(-1, 1, 2)) for _ in range(rng.integers(1, 4))]
+    t = 0.0
+    for _ in range(60):
+        t += rng.uniform(0.02, 0.2)
+        legs = [xy for p, v in (w(t) for w in walkers) for xy in walker_legs(p, v, t) if rng.random() > 0.3]
+        legs += list(rng.uniform(-3, 3, (rng.poisson(0.3), 2)))
+        legs = np.array(legs).reshape(-1, 2)
+        a, b = carrying.update(t, legs), plain.update(t, legs)
+        assert [(p.track_id, p.confirmed, p.time_since_seen_s) for p in a] == \
+               [(p.track_id, p.confirmed, p.time_since_seen_s) for p in b]
+        for p, q in zip(a, b):
+            np.testing.assert_array_equal(p.p_xy_m, q.p_xy_m)
+            np.testing.assert_array_equal(p.leg_xy_m, q.leg_xy_m)
+            assert q.carried_leg_xy_m.shape == (0, 2)
+            assert len(p.all_leg_xy_m) <= 2 and np.isfinite(p.carried_leg_xy_m).all()
+            if p.time_since_seen_s > 0.5:
+                assert p.carried_leg_xy_m.shape == (0, 2)
 
 
 # --- real data ---------------------------------------------------------------------------

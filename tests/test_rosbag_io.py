@@ -9,7 +9,7 @@ from cobotsafety.errors import RecordingError
 from cobotsafety.sensors.rosbag_io import read_imu, read_laser_scans, read_pose_arrays
 
 
-def test_reads_the_real_ros1_bags(shared_data):
+def test_reads_the_real_ros1_bags(shared_data, full_bags):
     path = shared_data / "leg_tracker" / "positive_2_extracted.bag"
     scans = read_laser_scans(path, "/training_scan")
     labels = read_pose_arrays(path, "/leg_cluster_positions")
@@ -18,7 +18,7 @@ def test_reads_the_real_ros1_bags(shared_data):
     assert scans[0].angle_increment == pytest.approx(0.00613592)
     assert all(1 <= xy.shape[0] <= 2 for _, xy in labels)
     demo = read_laser_scans(shared_data / "leg_tracker" / "demo_stationary_simple_environment.bag")
-    assert len(demo) == 1265 and demo[0].ranges.shape == (512,)
+    assert len(demo) == (1265 if full_bags else 400) and demo[0].ranges.shape == (512,)
     assert np.all(np.diff([s.stamp_s for s in demo]) > 0)
 
 
@@ -78,3 +78,31 @@ def test_missing_topic_and_corrupt_bags_are_refused_with_the_file_named(tmp_path
         read_laser_scans(garbage)
     with pytest.raises(RecordingError, match="no such bag"):
         read_laser_scans(tmp_path / "missing.bag")
+
+
+def test_the_shipped_excerpt_holds_what_its_readme_says():
+    """tests/data/leg_tracker, the fallback of a fresh clone, checked whatever data the other
+    tests use: the BSD-3 licence beside the bags, every labelled scan of both positive bags,
+    every 4th scan of negative_2's three scanners, the demo bag's first 400 scans; and the
+    scans are the full bags' own (same ranges, same stamps) where those are present."""
+    from conftest import EXCERPT_DATA, SHARED_DATA
+
+    folder = EXCERPT_DATA / "leg_tracker"
+    assert (folder / "LICENSE").read_text().startswith("BSD 3-Clause License")
+    counts = {"positive_1_extracted.bag": 197, "positive_2_extracted.bag": 83}
+    for name, scans in counts.items():
+        assert len(read_laser_scans(folder / name, "/training_scan")) == scans
+        assert len(read_pose_arrays(folder / name, "/leg_cluster_positions")) == scans
+    negative = {topic: read_laser_scans(folder / "negative_2.bag", topic)
+                for topic in ("/left_scan", "/rear_scan", "/right_scan")}
+    assert [len(v) for v in negative.values()] == [109, 109, 109]
+    demo = read_laser_scans(folder / "demo_stationary_simple_environment.bag")
+    assert len(demo) == 400
+    full = SHARED_DATA / "leg_tracker"
+    if full.is_dir():
+        whole = read_laser_scans(full / "negative_2.bag", "/rear_scan")
+        for mine, theirs in zip(negative["/rear_scan"], whole[::4], strict=True):
+            np.testing.assert_array_equal(mine.ranges, theirs.ranges)
+            assert mine.stamp_s == theirs.stamp_s
+        first = read_laser_scans(full / "demo_stationary_simple_environment.bag")[:400]
+        assert [s.stamp_s for s in first] == [s.stamp_s for s in demo]

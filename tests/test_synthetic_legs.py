@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cobotsafety.sensors import synthetic_legs as S
+from cobotsafety.tools import synthetic_legs as S
 from cobotsafety.sensors.leg_clusters import segment
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from cobotsafety.sensors.laser_scan import LaserScan
@@ -44,18 +45,9 @@ class Clusters(NamedTuple):
         return int(self.starts.size)
 
     def centroids(self) -> np.ndarray:
-        """Shape (c, 2) [m], the mean point of each cluster.
-
-        Sums over ``starts:stops`` from cumulative sums: the returns of dropped (too short)
-        clusters lie between the kept ones and must not count (``np.add.reduceat`` over the
-        starts alone would add them to the cluster before).
-        """
-        n = self.stops - self.starts
-        sums = []
-        for coordinate in (self.x_m, self.y_m):
-            cumulative = np.concatenate([[0.0], np.cumsum(coordinate)])
-            sums.append(cumulative[self.stops] - cumulative[self.starts])
-        return np.column_stack([sums[0] / n, sums[1] / n]).reshape(-1, 2)
+        """Shape (c, 2) [m], the mean point of each cluster (its own returns only: the returns
+        of dropped, too short clusters lie between the kept ones and do not count)."""
+        return _centroids(self.x_m, self.y_m, self.starts, self.stops)
 
     def widths(self) -> np.ndarray:
         """Shape (c,) [m], each cluster's width: the distance from its first to its last return."""
@@ -70,11 +62,37 @@ def segment(scan: LaserScan, jump_m: float = CLUSTER_JUMP_M,
     ranges = scan.ranges[beams]
     angles = scan.angle_min + scan.angle_increment * beams
     x, y = ranges * np.cos(angles), ranges * np.sin(angles)
-    if beams.size == 0:
-        empty = np.zeros(0, dtype=np.int64)
-        return Clusters(beams, x, y, ranges, empty, empty)
-    gap = np.hypot(np.diff(x), np.diff(y)) >= jump_m
-    starts = np.concatenate([[0], np.flatnonzero(gap) + 1]).astype(np.int64)
-    stops = np.concatenate([np.flatnonzero(gap) + 1, [beams.size]]).astype(np.int64)
-    keep = stops - starts >= min_points
-    return Clusters(beams, x, y, ranges, starts[keep], stops[keep])
+    starts, stops = _split(x, y, float(jump_m), int(min_points))
+    return Clusters(beams, x, y, ranges, starts, stops)
+
+
+@numba.njit(cache=True)
+def _split(x, y, jump_m, min_points):  # pragma: no cover - compiled
+    """Half-open (starts, stops) of the runs of consecutive points (m,) closer than ``jump_m``
+    to their predecessor, runs shorter than ``min_points`` dropped."""
+    m = x.size
+    starts = np.empty(m, dtype=np.int64)
+    stops = np.empty(m, dtype=np.int64)
+    count = 0
+    start = 0
+    for i in range(1, m + 1):
+        if i == m or np.hypot(x[i] - x[i - 1], y[i] - y[i - 1]) >= jump_m:
+            if i - start >= min_points:
+                starts[count] = start
+                stops[count] = i
+                count += 1
+            start = i
+    return starts[:count].copy(), stops[:count].copy()
+
+
+@numba.njit(cache=True)
+def _centroids(x, y, starts, stops):  # pragma: no cover - compiled
+    out = np.empty((starts.size, 2))
+    for j in range(starts.size):
+        sx = sy = 0.0
+        for i in range(starts[j], stops[j]):
+            sx += x[i]
+            sy += y[i]
+        out[j, 0] = sx / (stops[j] - starts[j])
+        out[j, 1] = sy / (stops[j] - starts[j])
+    return out

@@ -25,6 +25,17 @@ minimum counts as a leg only when it is the closest point of a *cluster* of neig
 
 Never invents a person: no cluster, no leg. No-return readings (0, inf, NaN, out of range)
 are never legs.
+
+Bad input fails closed: a non-finite or non-positive ``max_range_m``, a background with NaN
+or -inf (``+inf`` means open space), an option that would hide every leg (a NaN margin or
+width, a threshold of 1 or more) or a scan covering more than one revolution raise a
+``ValueError`` naming the argument; none of them returns "nobody".
+
+Linear time in the beam count: the learned detector's features count returns (its context,
+``leg_context``, is quadratic in the returns of one scan), and it was trained at the
+leg_tracker bags' beam spacing (``FINEST_INCREMENT_RAD``) and coarser; a finer scan is
+decimated to that spacing first (every k-th beam, as the training decimates), so at most
+~2,050 beams reach the clustering whatever the scanner gives (10^6 beams: one strided copy).
 """
 
 from __future__ import annotations
@@ -46,6 +57,70 @@ LEG_RADIUS_M = 0.06
 #: ~0.4 m (the paper's rule: 0.40); the widest labelled leg cluster of the leg_tracker bags is
 #: 0.45 m. Wider clusters (walls, tables) are never legs, whatever the classifier says.
 MAX_LEG_WIDTH_M = 0.5
+#: The finest beam spacing [rad] the classifier was trained at: the leg_tracker bags' 0.352 deg
+#: (768 beams over +-135 deg; ``train_legs`` adds every 2nd and 3rd beam). Finer scans are
+#: decimated to it (``at_trained_resolution``).
+FINEST_INCREMENT_RAD = 0.006135923
+#: A scan covers at most one revolution (plus one beam of overlap) [rad].
+FULL_TURN_RAD = 2.0 * math.pi
+
+
+def _require(name: str, value, ok: bool, what: str) -> None:
+    if not ok:
+        raise ValueError(f"detect_legs: {name} must be {what}, got {value if isinstance(value, str) else repr(value)}")
+
+
+def _number(name: str, value) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"detect_legs: {name} must be a number, got {value!r}") from None
+
+
+def _finite_at_least(name: str, value, low: float) -> float:
+    number = _number(name, value)
+    _require(name, value, math.isfinite(number) and number >= low, f"finite and >= {low}")
+    return number
+
+
+def _check_smoothing(smoothing_beams) -> int:
+    number = _number("smoothing_beams", smoothing_beams)
+    _require("smoothing_beams", smoothing_beams, number.is_integer() and number >= 1, "a whole number >= 1")
+    return int(number)
+
+
+def check_scan_and_range(scan: LaserScan, max_range_m: float, background: np.ndarray | None) -> np.ndarray | None:
+    """Refuse what would make the detector blind (module docstring); returns the background as
+    a float array. Raises ``ValueError`` naming the argument."""
+    number = _number("max_range_m", max_range_m)
+    _require("max_range_m", max_range_m, math.isfinite(number) and number > 0.0, "finite and > 0")
+    span = abs(scan.angle_increment) * (scan.ranges.size - 1)
+    _require("the scan's angular span", f"{span:.6g} rad ({scan.ranges.size} beams of {scan.angle_increment:.6g} rad)",
+             span <= FULL_TURN_RAD + abs(scan.angle_increment), "at most one revolution")
+    if background is None:
+        return None
+    background = np.asarray(background, dtype=float)
+    if background.shape != scan.ranges.shape:
+        raise ValueError(f"detect_legs: background must have the scan's shape {scan.ranges.shape}, "
+                         f"got {background.shape}")
+    usable = background > -np.inf  # False for NaN and -inf
+    if not usable.all():
+        beam = int(np.argmin(usable))
+        raise ValueError(f"detect_legs: background must be a range or +inf (open space) per beam; beam {beam} "
+                         f"is {background[beam]} ({int(np.count_nonzero(~usable))} such beams)")
+    return background
+
+
+def at_trained_resolution(scan: LaserScan, background: np.ndarray | None) -> tuple[LaserScan, np.ndarray | None]:
+    """``scan`` (and its background) with every k-th beam, k = the largest whole number of
+    beams that fits in ``FINEST_INCREMENT_RAD`` (1: the scan itself, as for every scanner at
+    0.176 deg or coarser), keeping at least two beams."""
+    step = min(int(FINEST_INCREMENT_RAD / abs(scan.angle_increment) + 1e-9), scan.ranges.size - 1)
+    if step <= 1:
+        return scan, background
+    coarse = LaserScan(scan.angle_min, scan.angle_increment * step, scan.range_min, scan.range_max,
+                       scan.ranges[::step], scan.stamp_s)
+    return coarse, None if background is None else background[::step]
 
 
 def foreground_mask(scan: LaserScan, max_range_m: float, background: np.ndarray | None,
@@ -72,6 +147,9 @@ def detect_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarra
         background: optional ranges of the empty scene, same beams; static objects are ignored.
         method: ``"learned"`` (cluster classifier, ``learned_legs``) or ``"paper"``
             (``paper_legs``); ``options`` go to that function.
+
+    Raises ``ValueError`` (naming the argument) for input that would make it blind: see the
+    module docstring.
     """
     if method == "learned":
         return learned_legs(scan, max_range_m, background, **options)
@@ -92,6 +170,9 @@ def learned_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarr
     if threshold_probability is None:
         threshold_probability = (forest.threshold_probability_no_background if background is None
                                  else forest.threshold_probability)
+    number = _number("threshold_probability", threshold_probability)
+    _require("threshold_probability", threshold_probability, math.isfinite(number) and number < 1.0,
+             "finite and < 1 (at 1 no cluster is a leg)")
     axes_m, probability = scored_candidates(scan, max_range_m, background, forest=forest, **options)
     return axes_m[probability > threshold_probability]
 
@@ -109,8 +190,15 @@ def scored_candidates(scan: LaserScan, max_range_m: float, background: np.ndarra
     or more than half of them. (A leg that passes in front of a spot where someone stood all
     recording long, or brushes past furniture, keeps a few returns in front; requiring half
     lost ~10 % of positive_2's labelled legs.) Features are computed for the candidates only,
-    their context among all of the scan's clusters (as in training).
+    their context among all of the scan's clusters (as in training), on the scan decimated to
+    the trained beam spacing (``at_trained_resolution``).
     """
+    background = check_scan_and_range(scan, max_range_m, background)
+    background_margin_m = _finite_at_least("background_margin_m", background_margin_m, 0.0)
+    leg_radius_m = _finite_at_least("leg_radius_m", leg_radius_m, 0.0)
+    smoothing_beams = _check_smoothing(smoothing_beams)
+    _require("max_width_m", max_width_m, _number("max_width_m", max_width_m) > 0.0, "> 0 (+inf: no limit)")
+    scan, background = at_trained_resolution(scan, background)
     clusters = segment(scan)
     if clusters.count == 0:
         return np.zeros((0, 2)), np.zeros(0)
@@ -177,6 +265,15 @@ def paper_legs(scan: LaserScan, max_range_m: float = 1.4, background: np.ndarray
         max_range_m: clipping range (paper: 1.4 m); returns beyond it are ignored.
         background: optional ranges of the empty scene, same beams; static objects are ignored.
     """
+    background = check_scan_and_range(scan, max_range_m, background)
+    leg_radius_m = _finite_at_least("leg_radius_m", leg_radius_m, 0.0)
+    background_margin_m = _finite_at_least("background_margin_m", background_margin_m, 0.0)
+    jump_number = _number("jump_m", jump_m)
+    _require("jump_m", jump_m, math.isfinite(jump_number) and jump_number > 0.0, "finite and > 0")
+    min_width_m = _finite_at_least("min_width_m", min_width_m, 0.0)
+    _require("max_width_m", max_width_m, _number("max_width_m", max_width_m) >= min_width_m,
+             f">= min_width_m ({min_width_m}) (+inf: no limit)")
+    smoothing_beams = _check_smoothing(smoothing_beams)
     ranges = scan.ranges
     mask = foreground_mask(scan, max_range_m, background, background_margin_m)
     if not np.any(mask):

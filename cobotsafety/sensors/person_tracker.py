@@ -19,6 +19,17 @@ Per scan (``update(t_s, legs_xy_m)``):
 4. **Births** (``pair_legs``): the legs left over are paired, closest first, when closer than
    ``leg_pair_distance_m``, a leg left alone being a person too; each starts a tentative track,
    confirmed after ``confirm_after_hits`` measurements.
+5. **Legs carried through short misses** (``_carry_legs``): each track keeps two leg slots,
+   each a leg's position at its last sighting and the track's velocity then. Two legs of a
+   track in a scan fill both slots; one leg fills the slot whose predicted leg (last position
+   moved on at that velocity) is nearer (an empty slot costs ``leg_pair_distance_m / 2``); a slot not filled, seen at
+   most ``leg_carry_s`` ago, is reported in ``Person.carried_leg_xy_m`` at its predicted leg:
+   moved with the torso, the mean of a stance leg (still) and a swing leg (twice as fast).
+   The torso's velocity at the last sighting, not the track's since: with one leg seen the
+   track is corrected towards that leg (eq. 4, a lone leg), and a leg moved with it drifted
+   onto the seen one within ~0.3 s. A missed leg, occluded by the other through a swing phase
+   or missed by the detector for a scan or two, is not a missed person. A carried leg is not a
+   measurement: it never corrects the track nor resets ``time_since_seen_s``.
 
 The filter's velocity is a model-based estimate (no finite differences of noisy positions);
 between sightings a track coasts at its last velocity, and ``time_since_seen_s`` says for how
@@ -37,6 +48,11 @@ from cobotsafety.estimation.constant_velocity import ConstantVelocityKalman, Kal
 from cobotsafety.sensors.person_kernel import correct_in_place, leg_gate, predict_in_place
 
 
+#: Shape (0, 2), read-only: no legs (shared by every person with none carried).
+_NO_LEGS = np.zeros((0, 2))
+_NO_LEGS.flags.writeable = False
+
+
 @dataclass(frozen=True)
 class PersonTrackerParams:
     """Tracker settings (units in the names)."""
@@ -53,6 +69,10 @@ class PersonTrackerParams:
     """A confirmed track not seen for this long is dropped [s]."""
     tentative_delete_after_s: float = 0.25
     """A tentative track not seen for this long is dropped [s]."""
+    leg_carry_s: float = 0.5
+    """A leg not seen is carried (``Person.carried_leg_xy_m``) for at most this long after its
+    last sighting [s]: a swing phase (~0.4 s of a ~1.1 s gait cycle, when the far leg hides
+    behind the near one) plus a scan. 0: never."""
     noise: KalmanNoise = field(default_factory=lambda: KalmanNoise(
         accel_density_m2_s3=2.0, measurement_std_m=0.05, initial_speed_std_m_s=1.0))
     """Kalman noise of a person's torso (the mean of its legs jitters by a few cm as they swing)."""
@@ -63,6 +83,8 @@ class PersonTrackerParams:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"PersonTrackerParams.{name} must be finite and > 0, got {value}")
+        if not (np.isfinite(self.leg_carry_s) and self.leg_carry_s >= 0):
+            raise ValueError(f"PersonTrackerParams.leg_carry_s must be finite and >= 0, got {self.leg_carry_s}")
         if self.tentative_delete_after_s > self.delete_after_s:
             raise ValueError(f"PersonTrackerParams.tentative_delete_after_s ({self.tentative_delete_after_s}) must "
                              f"not exceed delete_after_s ({self.delete_after_s})")
@@ -85,6 +107,16 @@ class Person:
     confirmed: bool
     time_since_seen_s: float
     """Time since the person's last measurement [s] (0 when seen in this scan)."""
+    carried_leg_xy_m: np.ndarray = field(default_factory=lambda: _NO_LEGS)
+    """Shape (0..2, 2), the legs not seen in this scan but seen within ``leg_carry_s``, moved
+    on from their last sighting at the torso's velocity then [m] (module docstring, step 5)."""
+
+    @property
+    def all_leg_xy_m(self) -> np.ndarray:
+        """Shape (0..2, 2): the legs seen in this scan, then the legs carried [m]."""
+        if len(self.carried_leg_xy_m) == 0:
+            return self.leg_xy_m
+        return np.concatenate([self.leg_xy_m.reshape(-1, 2), self.carried_leg_xy_m])
 
 
 def pair_legs(legs_xy_m: np.ndarray, leg_pair_distance_m: float) -> list[np.ndarray]:
@@ -137,6 +169,10 @@ class PersonTracker:
         self._ids = np.zeros(0, dtype=int)
         self._hits = np.zeros(0, dtype=int)
         self._last_seen_s = np.zeros(0)
+        self._empty_slot_cost_m = params.leg_pair_distance_m / 2
+        self._leg_slots: list[list[tuple | None]] = []
+        """Per track, two leg slots: None (never seen) or the leg's last sighting
+        ``(x_m, y_m, track vx_m_s, track vy_m_s, t_s)`` (plain floats: a few per scan)."""
         self._next_id = 1
         self._t_s = -np.inf
         self.births = 0
@@ -167,9 +203,12 @@ class PersonTracker:
             raise ValueError("PersonTracker.update: legs_xy_m must be finite")
         self._t_s = t_s
         n, k = self._ids.size, legs.shape[0]
+        carried: list[list[tuple[float, float]]] = []
         if n:
             self._predict(t_s)  # once: the association and the correction share it
         legs_of_track = self._assign_legs(legs) if n and k else [[] for _ in range(n)]
+        if n:
+            carried = self._carry_legs(t_s, legs, legs_of_track)  # from the predicted torsos
         taken = {leg for group in legs_of_track for leg in group}
         free = [leg for leg in range(k) if leg not in taken]
         new_groups = []
@@ -185,11 +224,13 @@ class PersonTracker:
             self._correct(t_s, z, seen)
             self._hits[seen] += 1
             self._last_seen_s[seen] = t_s
-            keep = self._drop(t_s)
-            legs_of_track = [g for g, kept in zip(legs_of_track, keep.tolist()) if kept]
+            keep = self._drop(t_s).tolist()
+            legs_of_track = [g for g, kept in zip(legs_of_track, keep) if kept]
+            carried = [c for c, kept in zip(carried, keep) if kept]
         if new_groups:
-            self._birth(t_s, np.array([_mean_leg(legs, g) for g in new_groups]))
-        return self._persons(t_s, legs, legs_of_track + new_groups)
+            self._birth(t_s, np.array([_mean_leg(legs, g) for g in new_groups]),
+                        [legs[g] for g in new_groups])
+        return self._persons(t_s, legs, legs_of_track + new_groups, carried + [[] for _ in new_groups])
 
     def _assign_legs(self, legs: np.ndarray) -> list[list[int]]:
         """Legs (indices into ``legs``) of each live track: 0, 1 or 2 each.
@@ -254,6 +295,32 @@ class PersonTracker:
                     free[legs[col]] = False
         return pairs
 
+    def _carry_legs(self, t_s: float, legs: np.ndarray, legs_of_track: list[list[int]]) -> list[list[tuple]]:
+        """Fill the leg slots of every track (already predicted to ``t_s``) with its legs of this
+        scan; returns, per track, the slots carried (module docstring, step 5) [m]."""
+        carry_from_s = t_s - self.params.leg_carry_s
+        points = legs.tolist()
+        carried = []
+        for slots, group, (vx, vy) in zip(self._leg_slots, legs_of_track, self._filter.velocity.tolist()):
+            if len(group) == 2:  # both slots (which is which never shows: nothing carried, both restart)
+                (x0, y0), (x1, y1) = points[group[0]], points[group[1]]
+                slots[0], slots[1] = (x0, y0, vx, vy, t_s), (x1, y1, vx, vy, t_s)
+                carried.append([])
+                continue
+            # Each slot's leg at t_s: its last sighting moved on at the torso's velocity then.
+            predicted = [None if slot is None else (slot[0] + slot[2] * (t_s - slot[4]), slot[1] + slot[3] * (t_s - slot[4]))
+                         for slot in slots]
+            filled = -1
+            if group:  # one leg: the nearer slot (an empty one costs half the pairing distance)
+                x, y = points[group[0]]
+                cost = [self._empty_slot_cost_m if guess is None else math.hypot(x - guess[0], y - guess[1])
+                        for guess in predicted]
+                filled = 0 if cost[0] <= cost[1] else 1
+                slots[filled] = (x, y, vx, vy, t_s)
+            carried.append([predicted[k] for k in (0, 1)
+                            if k != filled and slots[k] is not None and slots[k][4] >= carry_from_s])
+        return carried
+
     def _predict(self, t_s: float) -> None:
         f = self._filter
         if not self.packed:
@@ -281,12 +348,17 @@ class PersonTracker:
         f = self._filter
         f.position, f.velocity, f.covariance = f.position[keep], f.velocity[keep], f.covariance[keep]
         self._ids, self._hits, self._last_seen_s = self._ids[keep], self._hits[keep], self._last_seen_s[keep]
+        self._leg_slots = [slots for slots, kept in zip(self._leg_slots, keep.tolist()) if kept]
         return keep
 
-    def _birth(self, t_s: float, positions_m: np.ndarray) -> None:
+    def _birth(self, t_s: float, positions_m: np.ndarray, legs_m: list[np.ndarray]) -> None:
+        """New tentative tracks at ``positions_m`` (m, 2), each with its 1 or 2 legs (., 2) in its slots."""
         m = positions_m.shape[0]
         if m == 0:
             return
+        for group in legs_m:  # a new track's velocity is zero
+            slots = [(x, y, 0.0, 0.0, t_s) for x, y in group.tolist()]
+            self._leg_slots.append(slots + [None] * (2 - len(slots)))
         new = ConstantVelocityKalman(t_s, positions_m, self.params.noise)
         if self._filter is None or self._ids.size == 0:
             self._filter = new
@@ -301,7 +373,8 @@ class PersonTracker:
         self._next_id += m
         self.births += m
 
-    def _persons(self, t_s: float, legs: np.ndarray, legs_of_track: list[list[int]]) -> list[Person]:
+    def _persons(self, t_s: float, legs: np.ndarray, legs_of_track: list[list[int]],
+                 carried: list[list[tuple]]) -> list[Person]:
         if self._ids.size == 0:
             return []
         f = self._filter
@@ -314,6 +387,7 @@ class PersonTracker:
                 leg_xy_m=legs[group] if group else np.zeros((0, 2)),
                 confirmed=bool(confirmed[i]),
                 time_since_seen_s=float(t_s - self._last_seen_s[i]),
+                carried_leg_xy_m=np.array(kept) if kept else _NO_LEGS,
             )
-            for i, group in enumerate(legs_of_track)
+            for i, (group, kept) in enumerate(zip(legs_of_track, carried))
         ]
