@@ -62,7 +62,7 @@ def test_the_arm_gives_way_to_the_replayed_human(app):
             break
     else:
         pytest.fail("the bundled recording never comes within 0.5 m of the home pose")
-    critical = app.loop.robot.arm.human.critical_m
+    critical = app.loop.robot.human.critical_m
     app.render_once()
     ee = app.loop.snapshot().p_base_ee_m
     centre = (human.p0_b_m[0] + human.p1_b_m[0]) / 2

@@ -28,7 +28,7 @@ def test_axes_to_velocity_dead_zone_cap_and_bad_values():
 
 def test_the_scripted_device_drives_the_robot_when_no_gizmo_drag_is_in_progress():
     robot = PlanarTeleop()
-    loop = ControlLoop(robot, LoopSettings(max_accel_m_s2=100.0))
+    loop = ControlLoop(robot, LoopSettings())
     device = ScriptedDevice([(0.0, 1.0, 0.0)])
     feeder = DeviceFeeder(device, loop.set_device_velocity, dim=2)
     assert feeder.poll_once() == pytest.approx([0.0, 0.25])

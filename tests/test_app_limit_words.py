@@ -65,12 +65,13 @@ def test_describe_planar(name, words, target, side):
                                                                ("iiwa", "joint_a3", "joint_a2")])
 def test_vocabulary_of_a_real_robot_reads_its_model(robot, joint_3, shoulder_capsule):
     """The vocabulary built from the robot's own pinocchio model: velocity rows index its joints."""
-    from cobotsafety.arm.robot_state import RobotState
+    from cobotsafety.arm.controller import ArmController
 
-    state = RobotState(robot)
+    state = ArmController(robot).state
     vocabulary = lw.vocabulary_of(SimpleNamespace(dim=3, state=state))
     assert len(vocabulary.joints) == state.nv
     assert lw.describe(f"velocity {state.nv + 2}", vocabulary).joint == joint_3
+    assert lw.describe(f"{joint_3} speed", vocabulary).joint == joint_3  # the core's own row name
     assert lw.describe(f"human torso ({shoulder_capsule})", vocabulary).words == "the person's torso near the shoulder"
     assert lw.vocabulary_of(SimpleNamespace(dim=2)).planar
 

@@ -211,11 +211,11 @@ def test_the_report_s_witness_points_are_drawn_when_it_has_them():
     try:
         fields = dict(min_distance_m=0.4321, p_robot_closest_m=np.array([0.1, 0.2, 0.3]),
                       p_human_closest_m=np.array([0.5, 0.2, 0.3]))
-        closest = demo.closest_pair(SimpleNamespace(**fields), None, None)  # no capsules, no human: not computed
+        closest = demo.closest_pair(SimpleNamespace(**fields))
         assert closest[0] == 0.4321
         np.testing.assert_array_equal(closest[1], fields["p_robot_closest_m"])
         np.testing.assert_array_equal(closest[2], fields["p_human_closest_m"])
-        assert demo.closest_pair(SimpleNamespace(**{**fields, "min_distance_m": None}), None, None) is None
+        assert demo.closest_pair(SimpleNamespace(**{**fields, "min_distance_m": None})) is None
     finally:
         demo.server.stop()
 

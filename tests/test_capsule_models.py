@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from cobotsafety.arm.robot_capsules import PAPER_CAPSULES, load_capsules
-from cobotsafety.arm.robot_state import RobotState
+from cobotsafety.arm.controller import ArmController
 from cobotsafety.arm.robots import ROBOTS, load_robot, urdf_path
 from cobotsafety.errors import UnknownRobotError
 
@@ -43,16 +43,18 @@ def test_paper_capsules_have_the_papers_sizes_and_follow_the_arm(robot):
     for capsule, (name, length, radius) in zip(capsules[1:], PAPER_CAPSULES, strict=True):
         assert capsule.name == name and capsule.radius_m == radius
         assert np.linalg.norm(np.subtract(capsule.p1_joint, capsule.p0_joint)) == pytest.approx(length, abs=2e-6)
-    state = RobotState(robot, capsules="paper")
-    model, data = state.model, state.data
+    controller = ArmController(robot, capsules="paper")
+    state = controller.state
+    model = state.model
     shoulder, elbow, wrist = (model.getJointId(j) for j in state.spec.arm_joints)
     # On the iiwa (joint centres on the links' axes) in any pose; on the other arms (offset
     # elbows) at the home pose the tables are measured in.
     poses = 20 if robot == "iiwa" else 1
     for k in range(poses):
         if k:
-            state.q = pin.randomConfiguration(model, np.maximum(state.lower, -3), np.minimum(state.upper, 3))
-            state.update()
+            controller.set_configuration(pin.randomConfiguration(model, np.maximum(state.lower, -3),
+                                                                 np.minimum(state.upper, 3)))
+        data = state.data
         for i, (a, b) in enumerate(((shoulder, elbow), (elbow, wrist)), start=1):
             p0, p1 = state.capsule_p0[i], state.capsule_p1[i]
             axis = (p1 - p0) / np.linalg.norm(p1 - p0)

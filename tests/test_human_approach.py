@@ -16,7 +16,8 @@ from hypothesis import given, settings as hsettings, strategies as st
 from cobotsafety.control.nominal_path import NominalPath, hold
 from cobotsafety.experiments import approach_settings as settings
 from cobotsafety.experiments import approach_step
-from cobotsafety.experiments.approach_metrics import joint_acceleration_ratio, run_metrics
+from cobotsafety.experiments.approach_metrics import run_metrics
+from cobotsafety.experiments.motion_ratios import MotionRatios
 from cobotsafety.experiments.approach_truth import TruthHuman, min_capsule_distance_m
 from cobotsafety.experiments.human_approach import load_scenario, run_approach
 from cobotsafety.geometry.capsule import capsule_distance
@@ -27,7 +28,8 @@ ASSETS = files("cobotsafety.assets") / "recordings"
 JSON_KEYS = {"scenario", "recording", "robot", "controller", "ssm", "min_distance_seen_m", "min_distance_estimate_m",
              "min_distance_one_capsule_m", "min_distance_true_m", "estimate_error_at_closest_m", "closest_time_s",
              "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s", "stop_go_transitions",
-             "protective_stop_time_s", "max_ee_accel_m_s2", "max_joint_acceleration_ratio"}
+             "protective_stop_time_s", "max_ee_accel_m_s2", "max_joint_velocity_ratio", "max_joint_acceleration_ratio",
+             "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "safety_over_smoothness_steps"}
 
 
 @pytest.mark.parametrize("scenario", ["exp1", "exp2", "reach-over", "exp1-corner", "exp2-corner"])
@@ -102,16 +104,16 @@ def test_run_metrics_keep_the_one_capsule_fallback_apart_and_measure_the_error_a
     one_capsule[4:6] = [0.2, 0.25]  # the fat capsule: a 'jump' that must not reach 'estimate'
     true = np.linspace(1.0, 0.7, n)
     true[5] = 0.5  # the true closest moment is during the fallback
-    q = np.stack([np.zeros(n), 0.05 * t ** 2], axis=1)  # joint 1 accelerates at 0.1 rad/s^2
+    ratios = MotionRatios(0.1, 0.2, 0.3, None, None, None, 0, 0.4, 0.5, 0.6)
     m = run_metrics(dt, t, np.linspace(1, 0.5, n), estimate, one_capsule, true, v, np.full((n, 3), 0.1),
-                    np.zeros(n, bool), np.zeros(n, bool), q, np.array([1.0, 2.0]), None)
+                    np.zeros(n, bool), np.zeros(n, bool), ratios, None, 7)
     assert m.min_distance_estimate_m == pytest.approx(0.6) and m.min_distance_one_capsule_m == pytest.approx(0.2)
     assert m.min_distance_true_m == 0.5 and m.closest_time_s == pytest.approx(t[5])
     assert m.estimate_error_at_closest_m == pytest.approx(0.25 - 0.5)
     assert m.stopped_time_s == pytest.approx(4 * dt) and m.stop_go_transitions == 3
-    # qdd = 0.1 rad/s^2 on joint 1 (limit 2): ratio 0.05.
-    assert m.max_joint_acceleration_ratio == pytest.approx(0.05)
-    assert joint_acceleration_ratio(q, dt, np.array([1.0, 0.1])) == pytest.approx(1.0)
+    # the motion's ratios and the controller's count pass through unchanged
+    assert (m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
+            m.max_ee_jerk_m_s3, m.safety_over_smoothness_steps) == (0.1, 0.2, 0.3, 0.6, 7)
 
 
 @hsettings(max_examples=40, deadline=None)

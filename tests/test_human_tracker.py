@@ -44,6 +44,30 @@ def test_torso_velocity_follows_the_generator_truth(recording, truth):
     assert replay.tracker.torso_velocity_at(t[0], t[0]) is None  # not seen yet: no velocity
 
 
+def test_the_capsules_carry_the_tracked_torso_velocity_while_it_is_seen(recording, truth):
+    """One estimate of the human's motion: every end point of a fresh human moves with the
+    tracker's torso velocity (horizontal), compared here with the truth's torso derivative; a
+    human not seen fresh carries none (its growth covers the motion)."""
+    replay = Replay(recording)
+    t = truth["t_s"]
+    v_true = np.gradient(truth["torso_xy_b_m"], t, axis=0)
+    errors, without = [], 0
+    for i, t_i in enumerate(t):
+        caps = replay.capsules_at(t_i)
+        if not caps.present:
+            assert caps.v0_b_m_s is None
+            continue
+        if caps.v0_b_m_s is None:
+            without += 1
+            continue
+        assert np.all(caps.v0_b_m_s[:, 2] == 0.0) and np.array_equal(caps.v0_b_m_s, caps.v1_b_m_s)
+        assert np.allclose(caps.v0_b_m_s[:, :2], caps.v0_b_m_s[0, :2])  # one velocity for the body
+        errors.append(np.linalg.norm(caps.v0_b_m_s[0, :2] - v_true[i]))
+    errors = np.array(errors)
+    assert errors.size > 900 and without < errors.size
+    assert np.median(errors) < 0.08  # m/s, as the track's own velocity above
+
+
 def person(track_id, xy, confirmed=True, seen_s=0.0):
     return Person(track_id, np.array(xy, float), np.zeros(2), np.zeros((0, 2)), confirmed, seen_s)
 

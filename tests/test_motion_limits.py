@@ -36,7 +36,8 @@ def table():
 
 
 def test_the_table_covers_exactly_the_offered_robots():
-    assert sorted(table_robots()) == sorted(ROBOTS)
+    """Every 3D arm, and paper 1's planar arm (``cobotsafety.planar``, the JACO's limits)."""
+    assert sorted(table_robots()) == sorted([*ROBOTS, "planar"])
 
 
 @pytest.mark.parametrize("robot", list(ROBOTS))

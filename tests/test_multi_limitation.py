@@ -13,7 +13,6 @@ import cobotsafety
 from cobotsafety.cli import main
 from cobotsafety.experiments.multi_limitation import figure_reactive, run_scenario
 from cobotsafety.planar.rr_arm import Kinematics
-from cobotsafety.planar.baselines import ReactiveParams
 from cobotsafety.planar.limitations import Damping, rows_from_measures
 from cobotsafety.planar.planar_scenes import FIG9_TARGET_M, conditioning_scene, fig9_scene
 from cobotsafety.planar.planar_step import measures

@@ -157,6 +157,12 @@ class ControlLoop:
         self.failure = ""
         """Why the loop stopped ("" while it runs or was stopped on purpose)."""
         self._robot = robot
+        self.before_step: list[Callable[[float], None]] = []
+        """Called with the simulated time [s] under the lock before each step (e.g. the trial's
+        clock); one that raises is logged (once per distinct error), counted in
+        ``hook_failures`` and the step goes on (a failed *step* stops the loop)."""
+        self.hook_failures = 0
+        self._last_hook_error = ""
         self._method = "anticipative"
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -292,6 +298,14 @@ class ControlLoop:
         """One control period of ``dt_s`` [s] (default: the nominal ``settings.dt_s``)."""
         dt_s = self.settings.dt_s if dt_s is None else float(dt_s)
         with self.lock:
+            for hook in self.before_step:
+                try:
+                    hook(self._t_s)
+                except Exception as error:  # noqa: BLE001 - a hook's fault is not the robot's
+                    self.hook_failures += 1
+                    if str(error) != self._last_hook_error:  # logged once per distinct error
+                        logger.exception("a before-step hook failed (the step goes on)")
+                        self._last_hook_error = str(error)
             self._feed_human(dt_s)
             v = self.desired_velocity()
             report = self._robot.step(v, dt_s, self._method)

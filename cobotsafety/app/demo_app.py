@@ -56,7 +56,7 @@ from cobotsafety.app.panel import PLANAR_SCENES, make_panel, play_button_look
 from cobotsafety.app.log_filter import RepeatedWarningFilter
 from cobotsafety.app.plots import PlotHistory, Plots
 from cobotsafety.app.replay_control import ReplayControl, load_replay, refusal_sentence, seek_maximum_s, without_server_paths
-from cobotsafety.app.scene_human import HumanView, minimum_distance
+from cobotsafety.app.scene_human import HumanView
 from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.uploads import UploadReceiver, check_upload_name
 from cobotsafety.app.status import StatusFacts, status_html, status_lines
@@ -436,7 +436,9 @@ class DemoApp:
         if refusal:
             self.show_replay_message(refusal)
             return refusal
-        self.replay.use(replay, name)
+        with self._replay_lock:
+            self._pending = None  # the upload replaces the default still to read
+            self.replay.use(replay, name)
         self._keep_upload(name, replay)
         self.panel.recording.options = tuple(self.recordings)
         self.panel.recording.value = name

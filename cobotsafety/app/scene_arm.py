@@ -203,7 +203,7 @@ class ArmView:
                                      position=zone.center)
             elif isinstance(zone, SphereZone):
                 mesh = draw.capsule_mesh(0.0, zone.radius_m)
-                node = scene.add_mesh_simple(name, *_mesh_arrays(mesh), color=ZONE_COLOUR, opacity=0.35,
+                node = scene.add_mesh_simple(name, *mesh, color=ZONE_COLOUR, opacity=0.35,
                                              position=zone.center)
             elif isinstance(zone, CapsuleZone):
                 axis = np.asarray(zone.p1) - np.asarray(zone.p0)

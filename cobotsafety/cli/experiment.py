@@ -10,6 +10,8 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
     "multi-limitation": ("cobotsafety.experiments.multi_limitation", "paper 1, experiment 3 (Fig. 9)"),
     "human-approach": ("cobotsafety.experiments.human_approach",
                        "paper 2, experiments 1 and 2 and the reach-over stress case (Figs. 11, 12, 14)"),
+    "limits": ("cobotsafety.experiments.limit_runs",
+               "the commanded motion against the robot's velocity, acceleration and jerk limits"),
 }
 
 

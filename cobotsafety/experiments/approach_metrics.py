@@ -14,8 +14,11 @@ Distances [m], each its own named quantity:
   estimate (five capsules, or the fallback) minus the truth (negative: the estimate was nearer).
 
 Motion: ``peak_ee_speed_m_s``, ``max_ee_accel_m_s2`` (largest change of the executed velocity
-between steps over the step), ``max_joint_acceleration_ratio`` (largest |qdd_i| / limit_i over
-the run, qdd by second differences of the joint positions). Task: ``completion_time_s``;
+between steps over the step), ``max_joint_velocity_ratio``, ``max_joint_acceleration_ratio``,
+``max_joint_jerk_ratio`` (largest |value_i| / limit_i over the run, backward differences of the
+commanded joint positions from rest, ``experiments.motion_ratios``), ``max_ee_jerk_m_s3``,
+``safety_over_smoothness_steps`` (steps where a limitation was kept over the robot's
+acceleration or jerk limits, counted by the controller). Task: ``completion_time_s``;
 ``stopped_time_s``, time held although the task wanted motion (the controller said stopped, or
 the attraction asked for more than ``MOVING_M_S`` while the end-effector moved slower than
 ``STOPPED_M_S``); ``stop_go_transitions``, changes of that flag; ``protective_stop_time_s``,
@@ -48,16 +51,6 @@ def plain_distance_m(robot_p0, robot_p1, robot_radius, capsules: HumanCapsules, 
                                   nominal_radii(capsules, body))
 
 
-def joint_acceleration_ratio(q_rad: np.ndarray, dt_s: float, max_joint_accel_rad_s2: np.ndarray) -> float:
-    """Largest |qdd_i| / limit_i over a joint trajectory ``q_rad`` (n, nq) sampled every ``dt_s``
-    (second differences; the run starts and ends at rest is not assumed). 0 for n < 3."""
-    q = np.asarray(q_rad, dtype=float)
-    if len(q) < 3:
-        return 0.0
-    qdd = np.diff(q, n=2, axis=0) / (dt_s * dt_s)
-    return float(np.max(np.abs(qdd) / np.asarray(max_joint_accel_rad_s2, dtype=float)[None, : q.shape[1]]))
-
-
 def _min_or_none(values) -> float | None:
     values = np.asarray(values, dtype=float)
     finite = values[np.isfinite(values)]
@@ -78,7 +71,11 @@ class RunMetrics:
     stop_go_transitions: int
     protective_stop_time_s: float
     max_ee_accel_m_s2: float
+    max_joint_velocity_ratio: float
     max_joint_acceleration_ratio: float
+    max_joint_jerk_ratio: float
+    max_ee_jerk_m_s3: float | None
+    safety_over_smoothness_steps: int
 
     def as_dict(self, digits: int = 4) -> dict:
         return {k: (round(v, digits) if isinstance(v, float) and np.isfinite(v) else
@@ -86,10 +83,13 @@ class RunMetrics:
 
 
 def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_executed_m_s, v_desired_m_s,
-                stopped, protective, q_rad, max_joint_accel_rad_s2, completion_time_s: float | None) -> RunMetrics:
+                stopped, protective, ratios, completion_time_s: float | None,
+                safety_over_smoothness_steps: int = 0) -> RunMetrics:
     """Metrics from per-step arrays (n,) [m] (NaN where a quantity does not apply, inf where
     nobody is there), executed and desired end-effector velocities (n, 3) [m/s], the
-    controller's stopped flags and SSM's protective stops (n,), joint positions (n, nq) [rad]."""
+    controller's stopped flags and SSM's protective stops (n,), the run's ``MotionRatios``
+    (``experiments.motion_ratios``: the commanded joint path against the robot's limits) and
+    the steps where safety was kept over the acceleration or jerk limits."""
     v = np.asarray(v_executed_m_s, float).reshape(-1, 3)
     speed = np.linalg.norm(v, axis=1)
     wanted = np.linalg.norm(np.asarray(v_desired_m_s, float).reshape(-1, 3), axis=1)
@@ -106,4 +106,5 @@ def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_e
                       error, closest, float(speed.max()) if speed.size else 0.0, completion_time_s,
                       float(held.sum() * dt_s), int(np.count_nonzero(np.diff(held.astype(int)))),
                       float(np.sum(protective) * dt_s), float(accel.max()) if accel.size else 0.0,
-                      joint_acceleration_ratio(q_rad, dt_s, max_joint_accel_rad_s2))
+                      ratios.max_joint_velocity_ratio, ratios.max_joint_acceleration_ratio,
+                      ratios.max_joint_jerk_ratio, ratios.max_ee_jerk_m_s3, int(safety_over_smoothness_steps))

@@ -136,10 +136,20 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     return log
 
 
-def episode_metrics(log: EpisodeLog, dt_s: float, robot: str) -> RunMetrics:
-    limits, _ = settings.joint_acceleration_limits(robot)
+def episode_metrics(log: EpisodeLog, dt_s: float, controller) -> RunMetrics:
+    """The run's metrics; the motion against the robot's own limits (``MotionLimits``)."""
+    import pinocchio as pin
+
+    from cobotsafety.experiments.motion_ratios import motion_ratios
+
+    arm = controller.arm
+    model = arm.model.model
+    q = np.asarray(log.q_rad, dtype=float).reshape(-1, model.nq)
+    p_ee = np.asarray(log.p_ee_m, dtype=float).reshape(-1, 3)
+    ratios = motion_ratios(q, dt_s, arm.model.limits, lambda a, b: pin.difference(model, a, b), p_ee)
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
-                       log.v_att_m_s, log.stopped, log.protective, log.q_rad, limits, log.completion_s)
+                       log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,
+                       arm.smoothness_steps)
 
 
 @dataclass
@@ -236,7 +246,7 @@ def run_approach(controller: str, ssm: str = "off", scenario: str = "exp1", robo
     log = run_episode(ctrl, loaded.series(dt_s), loaded.replay.recording.body, path, dt_s, end_s,
                       loaded.truth, loaded.replay.start_s)
     return ApproachRun(loaded.scenario, str(loaded.recording_path.name), robot, controller, ssm,
-                       episode_metrics(log, dt_s, robot), log)
+                       episode_metrics(log, dt_s, ctrl), log)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -84,8 +84,8 @@ class HumanCapsules:
     in range). ``stale``: True when a sensor stream is older than its threshold and the model
     was made more conservative; ``reason``: a sentence for the app ("" when all is fresh).
     ``t_s``: the time the capsules describe. ``v0_b_m_s``, ``v1_b_m_s``: shape (k, 3) [m/s],
-    the end points' estimated velocities, or None when not estimated (the human-aware arm
-    estimates them, ``cobotsafety.control.human_velocity``).
+    the end points' estimated velocities, or None when not estimated (``HumanTracker`` gives
+    every end point the tracked torso's velocity while the torso is seen fresh).
     """
 
     p0_b_m: np.ndarray

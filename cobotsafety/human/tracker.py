@@ -4,7 +4,9 @@ Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving 
 eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs
 paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
 is the confirmed person nearest the robot base; while that person's legs are seen, the torso
-stream takes the track's filtered position and velocity (``torso_velocity_at``). Per IMU
+stream takes the track's filtered position and velocity (``torso_velocity_at``); a human seen
+fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), the one
+estimate of the human's motion the controller uses. Per IMU
 sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
 orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the conservative rules
 of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
@@ -162,4 +164,18 @@ class HumanTracker:
         if not laser_alive:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)
+        elif caps.present and torso_age <= self.policy.laser_stale_after_s:
+            caps = self._with_torso_velocity(caps, t_s, until_s)
         return caps
+
+    def _with_torso_velocity(self, caps: HumanCapsules, t_s: float, until_s: float | None) -> HumanCapsules:
+        """The capsules moving with the tracked torso (the person tracker's Kalman velocity, the
+        one estimate of the human's motion): every end point at the torso's horizontal velocity.
+        The arms' own motion relative to the torso is not estimated (their fresh IMU pose is used
+        each step); while the torso is not seen, no velocity (the stale growth covers it)."""
+        velocity = self.torso_velocity_at(t_s, until_s)
+        if velocity is None or not np.all(np.isfinite(velocity)):
+            return caps
+        v = np.zeros((len(caps.names), 3))
+        v[:, :2] = velocity
+        return caps.with_velocities(v, v.copy())

@@ -91,7 +91,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
         path = campaign_task(approach_step.state(controller).p_world_ee.copy())
         end_s = max(nominal + TIMEOUT_EXTRA_S, replay.duration_s)
         log = run_episode(controller, humans, recording.body, path, dt_s, end_s, truth, replay.start_s)
-        m = episode_metrics(log, dt_s, robot)
+        m = episode_metrics(log, dt_s, controller)
         true_min = m.min_distance_true_m
         breach = bool(true_min is not None and true_min < settings.CRITICAL_M)
         escape = best = None

@@ -1,0 +1,265 @@
+"""``cobotsafety experiment limits``: the commanded motion against the robot's own limits.
+
+Scripted runs of one robot (``--robot``, default panda) at one control period (``--dt``, default
+1 ms), each measured by ``experiments.motion_ratios`` (the commanded joint path by backward
+differences from rest, against ``assets/limits/robot_limits.toml``):
+
+* ``drag-turns``: hand drags at 0.25 m/s whose direction changes every 0.7 s (seeded);
+* ``drag-release``: 0.4 s drags at 0.5 m/s, each followed by a 0.4 s release (the arm holds);
+* ``joint-<name>-<end>``: from a pose 0.3 rad inside that joint's limit (or the nearest pose
+  toward it from home that meets every other limitation), the hand dragged along the direction
+  that joint's motion toward the limit moves it, for every limited joint and both ends;
+* ``table``, ``reach``, ``zone``: the hand driven down into the table, out past the reach
+  sphere, and at the demo cell's box zone;
+* ``invariant``: random teleoperation (``tools.invariant``'s command: a new random direction
+  every 100 steps);
+* ``exp1``, ``exp2``, ``reach-over``: paper 2's recordings with the pick-and-place task
+  (``experiment human-approach``'s runs, anticipative) unless ``--no-recordings``.
+
+Each run prints ``run``, ``robot``, ``dt_s``, ``max_joint_velocity_ratio``,
+``max_joint_acceleration_ratio``, ``max_joint_jerk_ratio``, ``max_ee_jerk_m_s3`` and
+``safety_over_smoothness_steps`` (steps the controller kept a limitation over the acceleration
+or jerk limits; each counted, never silent). ``--out DIR`` plots the first run's joint
+velocity and acceleration against their limits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cobotsafety.cli.arguments import bounded_float
+
+KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio", "max_ee_jerk_m_s3",
+        "safety_over_smoothness_steps")
+RECORDINGS = ("exp1", "exp2", "reach-over")
+START_INSIDE_RAD = 0.3
+"""How far inside a joint limit the joint runs start [rad]."""
+
+
+@dataclass
+class LimitRun:
+    run: str
+    robot: str
+    dt_s: float
+    ratios: object
+    """``MotionRatios``."""
+    safety_over_smoothness_steps: int
+    q_path: np.ndarray
+    """(T, nq) [rad], the commanded joint path (for the plots)."""
+
+    def as_json(self) -> dict:
+        r = self.ratios
+        values = {"max_joint_velocity_ratio": r.max_joint_velocity_ratio,
+                  "max_joint_acceleration_ratio": r.max_joint_acceleration_ratio,
+                  "max_joint_jerk_ratio": r.max_joint_jerk_ratio, "max_ee_jerk_m_s3": r.max_ee_jerk_m_s3}
+        out = {"run": self.run, "robot": self.robot, "dt_s": self.dt_s}
+        out.update({k: (None if v is None else round(float(v), 4)) for k, v in values.items()})
+        out["safety_over_smoothness_steps"] = int(self.safety_over_smoothness_steps)
+        return out
+
+
+def _measure(name: str, controller, commands, dt_s: float) -> LimitRun:
+    """Step ``controller`` (at rest) through ``commands`` (an iterable of (3,) velocities)."""
+    import pinocchio as pin
+
+    from cobotsafety.experiments.motion_ratios import motion_ratios
+
+    state = controller.state
+    qs, ps = [state.q.copy()], [state.p_world_ee.copy()]
+    steps_before = controller.smoothness_steps
+    for v in commands:
+        controller.step(v, dt_s, "anticipative")
+        qs.append(state.q.copy())
+        ps.append(state.p_world_ee.copy())
+    model = controller.model.model
+    q_path = np.array(qs)
+    ratios = motion_ratios(q_path, dt_s, controller.model.limits, lambda a, b: pin.difference(model, a, b),
+                           np.array(ps))
+    return LimitRun(name, controller.model.name, dt_s, ratios, controller.smoothness_steps - steps_before, q_path)
+
+
+def _steps(duration_s: float, dt_s: float) -> int:
+    return int(round(duration_s / dt_s))
+
+
+def drag_turns(controller, dt_s: float, seed: int = 0, duration_s: float = 10.0):
+    rng = np.random.default_rng(seed)
+    every = _steps(0.7, dt_s)
+    v = np.zeros(3)
+    for k in range(_steps(duration_s, dt_s)):
+        if k % every == 0:
+            d = rng.normal(size=3)
+            v = 0.25 * d / np.linalg.norm(d)
+        yield v
+
+
+def drag_release(controller, dt_s: float, seed: int = 1, pulls: int = 6):
+    rng = np.random.default_rng(seed)
+    for _ in range(pulls):
+        d = rng.normal(size=3)
+        v = 0.5 * d / np.linalg.norm(d)
+        for _ in range(_steps(0.4, dt_s)):
+            yield v
+        for _ in range(_steps(0.4, dt_s)):
+            yield np.zeros(3)
+
+
+def toward_joint_limit(controller, dt_s: float, iq: int, iv: int, upper: bool, duration_s: float = 1.5):
+    """The hand dragged along the direction joint ``iv``'s motion toward its limit moves it."""
+    sign = 1.0 if upper else -1.0
+    for _ in range(_steps(duration_s, dt_s)):
+        column = sign * controller.state.J_ee[:3, iv]
+        size = float(np.linalg.norm(column))
+        yield np.zeros(3) if size < 1e-6 else 0.4 * column / size
+
+
+def constant(v, duration_s: float, dt_s: float):
+    for _ in range(_steps(duration_s, dt_s)):
+        yield np.asarray(v, dtype=float)
+
+
+def invariant_commands(dt_s: float, steps: int = 5000, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    direction = np.zeros(3)
+    for i in range(steps):
+        if i % 100 == 0:
+            direction = rng.normal(size=3) * rng.uniform(0.05, 1.0)
+        yield direction
+
+
+def _start_near(fresh, model, iq: int, upper: bool, dt_s: float):
+    """A controller at rest with joint ``iq`` ``START_INSIDE_RAD`` inside its limit, or as close
+    to that as a pose that meets every other limitation allows (the home pose moved toward it;
+    a start inside the table or a zone would be a start inside a limit, not a drive into one)."""
+    home = model.home_q.copy()
+    span = model.upper[iq] - model.lower[iq]
+    inside = min(START_INSIDE_RAD, 0.25 * span)
+    target = home.copy()
+    target[iq] = model.upper[iq] - inside if upper else model.lower[iq] + inside
+    for share in np.linspace(1.0, 0.0, 11):
+        c = fresh()
+        c.set_configuration(home + share * (target - home))
+        probe = c.step(np.zeros(3), dt_s, "anticipative")
+        if not probe.safety_over_smoothness and not probe.binding:
+            c.set_configuration(home + share * (target - home))
+            return c
+    return fresh()
+
+
+def scripted_runs(robot: str, dt_s: float) -> list[LimitRun]:
+    """Every scripted run of ``robot`` (hand drags, joint limits, table, reach, zone, invariant)."""
+    from cobotsafety.arm.controller import ArmController
+
+    runs = []
+
+    def fresh():
+        return ArmController(robot)
+
+    c = fresh()
+    runs.append(_measure("drag-turns", c, drag_turns(c, dt_s), dt_s))
+    c = fresh()
+    runs.append(_measure("drag-release", c, drag_release(c, dt_s), dt_s))
+    model = c.model
+    for (iq, iv), name in zip(model.limited, model.limited_names):
+        for upper in (False, True):
+            c = _start_near(fresh, model, iq, upper, dt_s)
+            end = "upper" if upper else "lower"
+            runs.append(_measure(f"joint-{name}-{end}", c, toward_joint_limit(c, dt_s, iq, iv, upper), dt_s))
+    c = fresh()
+    runs.append(_measure("table", c, constant((0.0, 0.0, -0.5), 3.0, dt_s), dt_s))
+    c = fresh()
+    out = np.asarray(c.state.p_world_ee, dtype=float).copy()
+    out[2] = 0.0
+    out = out / max(float(np.linalg.norm(out)), 1e-9)
+    runs.append(_measure("reach", c, constant(0.5 * out, 4.0, dt_s), dt_s))
+    c = fresh()
+    box = next(z for z in c.zones if type(z).__name__ == "BoxZone")
+    to_box = np.asarray(box.center, dtype=float) - c.state.p_world_ee
+    runs.append(_measure("zone", c, constant(0.4 * to_box / np.linalg.norm(to_box), 3.0, dt_s), dt_s))
+    c = fresh()
+    runs.append(_measure("invariant", c, invariant_commands(dt_s), dt_s))
+    return runs
+
+
+def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
+    """Paper 2's recordings with the pick-and-place task (anticipative)."""
+    from cobotsafety.experiments.human_approach import load_scenario, run_approach
+    from cobotsafety.experiments.motion_ratios import MotionRatios
+
+    runs = []
+    for scenario in RECORDINGS:
+        run = run_approach("anticipative", scenario=scenario, robot=robot, dt_s=dt_s, loaded=load_scenario(scenario))
+        m = run.metrics
+        ratios = MotionRatios(m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
+                              None, None, None, 0, None, None, m.max_ee_jerk_m_s3)
+        runs.append(LimitRun(scenario, robot, dt_s, ratios, m.safety_over_smoothness_steps,
+                             np.asarray(run.log.q_rad, dtype=float)))
+    return runs
+
+
+def plot(run: LimitRun, controller_limits, out: Path) -> Path:
+    """The run's joint velocity and acceleration, each over its limit (1 = the limit)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    q = run.q_path
+    qd = np.diff(q, axis=0) / run.dt_s
+    qdd = np.diff(qd, axis=0, prepend=np.zeros((1, qd.shape[1]))) / run.dt_s
+    t = run.dt_s * np.arange(1, len(q))
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for ax, values, limit, label in ((axes[0], qd, controller_limits.velocity_rad_s, "|joint velocity| / limit"),
+                                     (axes[1], qdd, controller_limits.acceleration_rad_s2,
+                                      "|joint acceleration| / limit")):
+        for j in range(values.shape[1]):
+            ax.plot(t, np.abs(values[:, j]) / limit[j], lw=0.8, label=f"joint {j + 1}")
+        ax.axhline(1.0, color="k", ls="--", lw=1)
+        ax.set_ylabel(label)
+    axes[1].set_xlabel("time [s]")
+    axes[0].legend(ncol=4, fontsize=7)
+    axes[0].set_title(f"{run.robot}, {run.run}, dt {run.dt_s * 1e3:g} ms")
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"limits_{run.robot}_{run.run}.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robot", default="panda", help="robot name (default panda)")
+    parser.add_argument("--dt", type=bounded_float(0.0, 0.01, "s"), default=0.001,
+                        help="control period [s] (default 0.001; paper 2's robot: 1/275)")
+    parser.add_argument("--no-recordings", action="store_true", help="skip paper 2's three recordings")
+    parser.add_argument("--json", action="store_true", help="print a JSON list, one object per run")
+    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="plot the first run's joint velocity and acceleration against their limits there")
+
+
+def run(args: argparse.Namespace) -> int:
+    from cobotsafety.arm.motion_limits import load_motion_limits  # noqa: F401 - a clear error first
+    from cobotsafety.arm.robots import robot_spec
+
+    robot_spec(args.robot)
+    runs = scripted_runs(args.robot, args.dt)
+    if not args.no_recordings:
+        runs += recording_runs(args.robot, args.dt)
+    rows = [r.as_json() for r in runs]
+    if args.json:
+        print(json.dumps(rows))
+    else:
+        print(f"{'run':<28}" + "".join(f"{k.replace('max_', '').replace('_ratio', ''):>22}" for k in KEYS))
+        for row in rows:
+            cells = "".join(f"{'-' if row[k] is None else row[k]:>22}" for k in KEYS)
+            print(f"{row['run']:<28}{cells}")
+    if args.out is not None:
+        from cobotsafety.arm.controller import ArmController
+
+        print(f"wrote {plot(runs[0], ArmController(args.robot).model.limits, args.out)}")
+    return 0

@@ -1,0 +1,48 @@
+"""``experiment limits``: a scripted hand drag keeps every joint ratio within the robot's limits,
+the JSON objects carry the issue's keys, and the command prints them."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cobotsafety.arm.controller import ArmController
+from cobotsafety.experiments import limit_runs
+from cobotsafety.experiments.limit_runs import KEYS, _measure, drag_release, drag_turns
+
+
+@pytest.mark.parametrize("robot,dt_s", [("panda", 0.001), ("iiwa", 1 / 275)])
+def test_a_scripted_drag_stays_within_the_robots_limits(robot, dt_s):
+    c = ArmController(robot)
+    run = _measure("drag-turns", c, drag_turns(c, dt_s, duration_s=3.0), dt_s)
+    r = run.ratios
+    assert r.max_joint_velocity_ratio <= 1.0 + 1e-9
+    assert r.max_joint_acceleration_ratio <= 1.0 + 1e-9
+    assert r.max_joint_jerk_ratio <= 1.0 + 1e-9
+    assert r.max_ee_jerk_m_s3 <= c.model.limits.ee_jerk_m_s3 * (1 + 1e-9)
+    assert run.safety_over_smoothness_steps == 0
+    assert r.max_joint_acceleration_ratio > 0.1  # the drag does use the arm
+
+
+def test_releases_hold_within_the_limits():
+    c = ArmController("panda")
+    run = _measure("drag-release", c, drag_release(c, 0.001, pulls=2), 0.001)
+    assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9 and run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
+    assert np.linalg.norm(np.diff(run.q_path[-3:], axis=0)) < 1e-4  # held still at the end of a release
+
+
+def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys):
+    from cobotsafety.cli import main
+
+    def short(robot, dt_s):
+        c = ArmController(robot)
+        return [_measure("drag-turns", c, drag_turns(c, dt_s, duration_s=0.5), dt_s)]
+
+    monkeypatch.setattr(limit_runs, "scripted_runs", short)
+    assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert set(row) == {"run", "robot", "dt_s", *KEYS}
+    assert (row["run"], row["robot"], row["dt_s"]) == ("drag-turns", "panda", 0.001)
+    assert isinstance(row["safety_over_smoothness_steps"], int)
