@@ -16,7 +16,7 @@ import pinocchio as pin
 import pytest
 
 from cobotsafety.arm.controller import MAX_PERIOD_S, MAX_STEP_S, ArmController, StepError
-from cobotsafety.arm.limitations import HalfSpaceZone, JointPositionLimits, ReachLimits, SphereZone
+from cobotsafety.arm.limitations import HalfSpaceZone, SphereZone
 from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.errors import UnknownRobotError
 from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO, motion_ratios
@@ -160,3 +160,138 @@ def test_random_teleoperation_keeps_the_hand_within_its_limits_and_the_cap(robot
     assert ratios.max_ee_speed_m_s <= cap * 1.03, words  # executed: a few % of curvature over a step
     assert ratios.max_ee_acceleration_m_s2 <= limits.ee_acceleration_m_s2 * OVER_LIMIT_RATIO, words
     assert ratios.max_ee_jerk_m_s3 <= limits.ee_jerk_m_s3 * OVER_LIMIT_RATIO, words
+
+
+# ---- limitations one by one ----------------------------------------------------------------------
+def test_recovery_from_inside_a_zone_only_reduces_the_violation():
+    """The hand starts inside a sphere zone; whatever it is commanded (random, seeded), the
+    deepest penetration never deepens, and the arm drifts out."""
+    controller = ArmController("panda", zones=[])
+    p = controller.p_base_ee_m
+    controller.zones = [SphereZone("blob", tuple(p + np.array([0.0, 0.0, 0.05])), 0.08)]  # over the hand
+    zone_rows = len(controller.model.capsules) - 1  # the zone's distances: the last ones, one per capsule
+
+    def depth() -> float:
+        return float(oracle_distances(controller)[-zone_rows:].min())
+
+    rng = np.random.default_rng(5)
+    start = previous = depth()
+    assert start < -0.05
+    for i in range(400):
+        if i % 40 == 0:
+            v = rng.normal(size=3) * 0.3
+        controller.step(v, 0.002)
+        d = depth()
+        assert d >= previous - CROSSING_M, (i, d, previous)
+        previous = d
+    assert previous > start + 0.02
+
+
+def test_a_singular_pose_gives_finite_commands_and_the_arm_bends_away():
+    controller = ArmController("ur5", zones=[], reach=False, table=False)  # the singularity alone
+    controller.set_configuration(np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0]))  # stretched up: singular
+    z0 = controller.p_base_ee_m[2]
+    up = drive(controller, [0.0, 0.0, 0.3], 20, 0.002)  # stretching further: nothing to give
+    assert all(np.all(np.isfinite(r.v_commanded_m_s)) for r in up)
+    assert controller.p_base_ee_m[2] <= z0 + 1e-4
+    side = drive(controller, [0.3, 0.0, 0.0], 100, 0.002)  # sideways: the arm can still move
+    assert np.linalg.norm(side[-1].v_executed_m_s) > 0.1
+    down = drive(controller, [0.0, 0.0, -0.3], 300, 0.002)  # back along the singular direction
+    assert all(np.all(np.isfinite(r.v_commanded_m_s)) and np.all(np.isfinite(r.p_base_ee_m)) for r in down)
+    assert controller.p_base_ee_m[2] < z0 - 0.02
+
+
+@pytest.mark.parametrize("method", ["anticipative", "stop", "reactive", "off"])
+def test_a_non_finite_command_or_period_never_reaches_the_state(method, caplog):
+    controller = ArmController("panda")
+    drive(controller, [0.2, 0.1, 0.0], 50, 0.002, method)  # moving
+    with caplog.at_level(logging.WARNING, logger="cobotsafety.arm.controller"):
+        for dt in (np.nan, np.inf, -0.002, 0.0):  # a bad period: nothing integrated
+            q = controller.state.q.copy()
+            report = controller.step(np.array([0.2, 0.1, 0.0]), dt, method)
+            np.testing.assert_array_equal(controller.state.q, q)
+            assert report.stopped and "refused" in report.reason
+            np.testing.assert_array_equal(report.v_commanded_m_s, np.zeros(3))
+        for v in ([np.nan, 0.1, 0.0], [np.inf, 0.0, 0.0], [0.0, -np.inf, np.nan]):  # a bad command: zero
+            report = controller.step(np.array(v), 0.002, method)
+            assert "not finite" in report.reason
+            assert np.all(np.isfinite(controller.state.q)) and np.all(np.isfinite(report.v_commanded_m_s))
+    assert len([r for r in caplog.records if r.levelno == logging.WARNING]) == 7  # one line each
+    twin = ArmController("panda")  # a non-finite command is the zero command, step for step
+    twin.set_configuration(controller.state.q)
+    still = ArmController("panda")
+    still.set_configuration(controller.state.q)
+    for _ in range(20):
+        twin.step(np.array([np.nan, 0.0, 0.0]), 0.002, method)
+        still.step(np.zeros(3), 0.002, method)
+    np.testing.assert_array_equal(twin.state.q, still.state.q)
+    with pytest.raises(ValueError, match="shape"):
+        controller.step(np.zeros(2), 0.002, method)
+
+
+def test_a_long_period_is_split_and_a_jump_refused():
+    a, b = ArmController("panda"), ArmController("panda")
+    v = np.array([0.2, -0.1, 0.05])
+    for _ in range(5):
+        a.step(v, 0.025)  # three steps of 1/120 s each
+        for _ in range(3):
+            b.step(v, 0.025 / 3)
+    np.testing.assert_allclose(a.state.q, b.state.q, atol=1e-12)
+    assert 0.025 / 3 <= MAX_STEP_S
+    with pytest.raises(StepError):
+        a.step(v, 2 * MAX_PERIOD_S)
+
+
+def test_the_extended_reach_holds_while_the_arm_stretches():
+    controller = ArmController("panda", zones=[])
+    shoulder, outer = np.array(controller.reach.shoulder), controller.reach.outer_m
+    for _ in range(1500):  # drag straight out for 3 s
+        controller.step(np.array([0.5, 0.0, 0.2]), 0.002)
+        assert np.linalg.norm(Kinematics(controller.model, controller.state.q).p_ee - shoulder) <= outer + CROSSING_M
+    assert np.linalg.norm(controller.p_base_ee_m - shoulder) > outer - 0.01  # it got there and slid on it
+    assert "reach extended" in controller.last_report.binding
+
+
+def test_two_walls_make_the_hand_slide_along_their_edge():
+    probe = ArmController("panda", zones=[])
+    p = probe.p_base_ee_m
+    walls = [HalfSpaceZone("floor", (0.0, 0.0, p[2] - 0.1), (0.0, 0.0, -1.0), skip_capsules=6),
+             HalfSpaceZone("wall", (p[0] + 0.1, 0.0, 0.0), (1.0, 0.0, 0.0), skip_capsules=6)]
+    controller = ArmController("panda", zones=walls)
+    drive(controller, [0.3, 0.0, -0.3], 500, 0.002)  # into the corner
+    reports = drive(controller, [0.3, 0.2, -0.3], 100, 0.002)
+    assert {"floor", "wall"} <= {name.split(" ")[0] for name in reports[-1].binding}
+    executed = reports[-1].v_executed_m_s
+    assert executed[1] > 0.1 and abs(executed[0]) < 0.01 and abs(executed[2]) < 0.01  # along the edge (y)
+    assert np.all(oracle_distances(controller) >= -CROSSING_M)
+
+
+def test_free_space_commands_are_followed_up_to_the_speed_cap_a_norm():
+    speeds = {}
+    for direction in ((-1.0, 0.0, 0.0), (-1.0, -1.0, 1.0)):  # inward: no limitation on the way
+        controller = ArmController("panda", zones=[])
+        u = np.array(direction) / np.linalg.norm(direction)
+        slow = drive(controller, 0.1 * u, 300, 0.002)  # below the cap: followed exactly
+        np.testing.assert_allclose(slow[-1].v_commanded_m_s, 0.1 * u, atol=1e-9)
+        assert slow[-1].binding == ()
+        fast = drive(controller, 2.0 * u, 100, 0.002)  # four times the cap: capped, along the command
+        assert set(fast[-1].binding) <= {"speed"}
+        speeds[direction] = np.linalg.norm(fast[-1].v_commanded_m_s)
+        np.testing.assert_allclose(fast[-1].v_commanded_m_s / speeds[direction], u, atol=1e-6)
+    cap = controller.settings.max_speed_m_s
+    assert speeds[(-1.0, 0.0, 0.0)] == pytest.approx(cap, rel=1e-6)
+    assert speeds[(-1.0, -1.0, 1.0)] == pytest.approx(cap, rel=1e-6)  # a diagonal is no faster
+
+
+def test_joint_limits_hold_when_the_arm_is_driven_into_them():
+    controller = ArmController("panda", zones=[], reach=False, table=False)  # the joints alone
+    model = controller.model
+    iq = model.limited[:, 0]
+    met = set()
+    for v in ([0.0, 0.0, 0.5], [-0.5, 0.0, -0.3], [0.0, 0.5, 0.0]):
+        for _ in range(600):
+            report = controller.step(np.array(v), 0.004)
+            q = controller.state.q
+            assert np.all(q[iq] >= model.lower[iq] - CROSSING_M) and np.all(q[iq] <= model.upper[iq] + CROSSING_M)
+            met |= {name for name in report.binding if name.endswith((" lower", " upper"))}
+    assert met, "no joint limit was met"
