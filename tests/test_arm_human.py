@@ -333,8 +333,8 @@ def test_the_contradiction_warning_comes_once_per_episode_with_a_count(caplog):
         assert len([r for r in caplog.records if "contradict" in r.getMessage()]) == 2
 
 
-def test_the_anticipative_arm_yields_for_a_dwell_instead_of_stopping_and_going():
-    logging.getLogger("cobotsafety.arm.controller").setLevel(logging.ERROR)
+def test_the_anticipative_arm_yields_for_a_dwell_instead_of_stopping_and_going(caplog):
+    caplog.set_level(logging.ERROR, logger="cobotsafety.arm.controller")
     rng = np.random.default_rng(0)
     controller = ArmController("panda", zones=[])
     v = np.array([0.0, 0.3, 0.0])
@@ -351,7 +351,6 @@ def test_the_anticipative_arm_yields_for_a_dwell_instead_of_stopping_and_going()
     assert all(r.stopped and r.reason.startswith("yielding") for r in reports[:steps - 1])  # ... it still yields
     assert not reports[-1].stopped and reports[-1].v_commanded_m_s[1] > 0.0  # then goes, once
     assert all(not r.stopped for r in reports[steps + 1:])
-    logging.getLogger("cobotsafety.arm.controller").setLevel(logging.NOTSET)
 
 
 # ---- paper 2's field -----------------------------------------------------------------------------
@@ -382,7 +381,9 @@ def test_the_repulsion_is_paper_2_eq_18_along_the_separation():
     qdot, stopped = field_velocity(J, np.array([0.1, 0.0, 0.0]), critical, capsule, p_robot, p_robot - 0.3 * s,
                                    cap_joint, oR, op, axes, idx_v, support, critical, influence, k_rep, f_max, 1e-9)
     assert stopped and not qdot.any()
-    assert 0.1 * (0.3 / 0.15 - 1.0) == pytest.approx(0.1)  # eq. 18 at d = 0.35 by hand
+    qdot, _ = field_velocity(J, np.zeros(3), 0.35, capsule, p_robot, p_robot - 0.3 * s, cap_joint, oR, op, axes,
+                             idx_v, support, critical, influence, k_rep, f_max, 1e-9)
+    np.testing.assert_allclose(J_cp @ qdot, [0.0, 0.06, 0.08], atol=1e-6)  # by hand: 0.1 (0.3 / 0.15 - 1) s
 
 
 # ---- a person walking at the held arm ------------------------------------------------------------
