@@ -71,9 +71,9 @@ def world_pose(handles: dict, node) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_capsules_ride_on_their_links_where_pinocchio_puts_them(server):
-    from cobotsafety.arm.teleop import ArmTeleop
+    from cobotsafety.arm.controller import ArmController
 
-    teleop = ArmTeleop("panda")
+    teleop = ArmController("panda")
     state = teleop.state
     view = ArmView(server, teleop)
     assert view.capsule_attached.all()
@@ -82,8 +82,7 @@ def test_capsules_ride_on_their_links_where_pinocchio_puts_them(server):
     rng = np.random.default_rng(11)
     lower, upper = state.model.lowerPositionLimit, state.model.upperPositionLimit
     for _ in range(3):  # the first pose goes through update_cfg, the next ones through the poser
-        state.q = rng.uniform(lower, upper)
-        state.update()
+        teleop.set_configuration(rng.uniform(lower, upper))
         view.update(snapshot, state.q, (state.capsule_p0, state.capsule_p1, state.capsule_radius))
         for i, node in enumerate(view.capsules):
             R, p = world_pose(handles, node)
@@ -93,9 +92,9 @@ def test_capsules_ride_on_their_links_where_pinocchio_puts_them(server):
 
 
 def test_capsules_without_a_urdf_frame_move_only_when_they_moved(server):
-    from cobotsafety.arm.teleop import ArmTeleop
+    from cobotsafety.arm.controller import ArmController
 
-    teleop = ArmTeleop("panda")
+    teleop = ArmController("panda")
     view = ArmView(server, teleop)
     view.capsule_attached[:] = False  # as for a robot without URDF meshes: posed in the world frame
     state = teleop.state
