@@ -183,9 +183,9 @@ def test_status_segment_and_plot_show_one_minimum_distance():
         assert not demo.replay.playing and demo.replay.time_s == 0.0  # the demo starts paused
         demo.replay.seek(5.0)  # exp1: the co-worker reaches towards the table
         demo.loop.method = "off"
-        for frame in range(30):
-            demo.render_once()
+        for frame in range(30):  # a step, then the frame that shows it
             demo.loop.step_once()
+            demo.render_once()
         shown = demo.last_min_distance_m
         assert shown is not None
         status = demo.panel.status.content

@@ -450,13 +450,15 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                     rate_q0 += A[i, j] * q0[j]
                 if rate_q0 < bounds[i] - 1e-12:
                     stopped = True
-        # The stop baseline never moves away from a limitation (a person walking at it meets a
-        # robot that holds still): its bounds ask at most for standstill.
+    if stopped or protective or force_stop:
+        q0 = np.zeros(nv)
+    if strategy == STOP or protective:
+        # The stop baseline and ISO/TS 15066's protective stop never move away from a limitation
+        # (a person walking at the arm meets an arm that brakes and holds still): the bounds ask
+        # at most for standstill.
         for i in range(m):
             bounds[i] = min(bounds[i], 0.0)
             safe_bounds[i] = min(safe_bounds[i], 0.0)
-    if stopped or protective or force_stop:
-        q0 = np.zeros(nv)
     # ---- 4. the rows the filter keeps ----------------------------------------------------------
     capacity = 2 * m + 4 * nv + 6 + SPEED_CUTS
     N = np.zeros((capacity, nv))

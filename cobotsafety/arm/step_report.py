@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, OUT_I_HEADER
+from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER
 
 
 class ArmStepReport:
@@ -21,6 +21,11 @@ class ArmStepReport:
     __slots__ = ("_out_f", "_out_i", "_o", "_name", "_binding", "_motion", "v_desired_m_s", "stopped", "reason",
                  "contradictions", "safety_over_smoothness", "safety_over_smoothness_steps", "human_status",
                  "_p_before")
+
+    @property
+    def protective_stop(self) -> bool:
+        """ISO/TS 15066's protective stop held (braked) the arm this step."""
+        return bool(self._out_i[I_PROTECTIVE])
 
     def __init__(self, out_f, out_i, offsets, name, v_desired_m_s, stopped, reason, contradictions, smoothness,
                  smoothness_steps, human_status, p_before):

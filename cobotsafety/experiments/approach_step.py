@@ -90,5 +90,5 @@ def step(controller: Controller, human: HumanCapsules | None, v_att_m_s: np.ndar
         controller.human_set = False
     report = arm.step(np.asarray(v_att_m_s, dtype=float), dt_s, controller.strategy)
     d = report.min_distance_m
-    held = report.reason.startswith("SSM protective stop")
+    held = report.protective_stop
     return ApproachStep(report, float(d) if d is not None else float("inf"), arm.state.q.copy(), held)
