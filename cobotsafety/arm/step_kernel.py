@@ -452,8 +452,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                     stopped = True
     if stopped or protective or force_stop:
         q0 = np.zeros(nv)
-    if strategy == STOP or protective:
-        # The stop baseline and ISO/TS 15066's protective stop never move away from a limitation
+    if strategy == STOP or protective or force_stop:
+        # The stop baseline, the protective stop and the watchdog's stop never move away from a limitation
         # (a person walking at the arm meets an arm that brakes and holds still): the bounds ask
         # at most for standstill.
         for i in range(m):
