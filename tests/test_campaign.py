@@ -80,9 +80,9 @@ def test_the_separation_gradient_matches_finite_differences():
 
 
 def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
-    from cobotsafety.arm.robot_state import RobotState
+    from cobotsafety.arm.controller import ArmController
 
-    state = RobotState("iiwa", capsules="paper")
+    state = ArmController("iiwa", zones=[], capsules="paper").state
     q_home, p_ee = state.q.copy(), state.p_world_ee.copy()
     # The human walks at the hand and stops 0.1 m from its axis: inside the critical distance
     # of a robot that stays, avoidable by moving the hand away.

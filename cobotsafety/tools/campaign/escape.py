@@ -4,7 +4,7 @@ For a breach (the true separation fell below the critical distance at ``t_closes
 robot's logged joint state at ``t0 = t_closest - LOOKBACK_S`` and ask scipy (SLSQP) for a joint
 trajectory over ``[t0, t_closest + LOOKAHEAD_S]`` that keeps the true separation above the
 critical distance, knowing the human's whole future (the ground truth): joint velocities
-piecewise constant over ``KNOTS`` segments, each within the robot's velocity limits, positions
+piecewise constant over ``KNOTS`` segments, each within the robot's velocity limits (``MotionLimits``), positions
 within its joint limits, maximising the smallest separation ``s`` at ``SAMPLES`` times
 (epigraph form: maximise ``s`` subject to ``d_j(qdot) >= s``). The constraints' gradients are
 exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
@@ -44,18 +44,18 @@ class _Kinematics:
     """The robot's capsules (minus the base one) at any q, and the separation's gradient."""
 
     def __init__(self, robot: str, capsules: str = "paper", skip_capsules: int = 1):
-        from cobotsafety.arm.robot_state import RobotState
+        from cobotsafety.arm.controller import ArmController
 
-        self.state = RobotState(robot, capsules=capsules)
+        self.arm = ArmController(robot, zones=[], capsules=capsules)
+        self.state = self.arm.state
         self.skip = skip_capsules
         model = self.state.model
-        self.v_max = np.asarray(model.velocityLimit, dtype=float)
+        self.v_max = np.asarray(self.arm.model.limits.velocity_rad_s, dtype=float)
         self.lower, self.upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
 
     def capsules(self, q: np.ndarray):
+        self.arm.set_configuration(q)
         s = self.state
-        s.q = q
-        s.update()
         return s.capsule_p0[self.skip:], s.capsule_p1[self.skip:], s.capsule_radius[self.skip:]
 
     def separation(self, q: np.ndarray, hp0, hp1, hr) -> tuple[float, np.ndarray]:
