@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from cobotsafety.arm.controller import YIELD_DWELL_S, ArmController, HumanWatchdog
-from cobotsafety.arm.filter_settings import FilterSettings
 from cobotsafety.arm.limitations import BoxZone, HumanLimitation
 from cobotsafety.arm.ssm import SsmParams
 from cobotsafety.human.body import HumanCapsules

@@ -22,7 +22,8 @@ from cobotsafety.experiments.approach_truth import TruthHuman, min_capsule_dista
 from cobotsafety.experiments.human_approach import load_scenario, run_approach
 from cobotsafety.geometry.capsule import capsule_distance
 from cobotsafety.human.body import HumanCapsules
-from cobotsafety.tools.generate_recording import main as generate_main, truth_path
+from cobotsafety.experiments.approach_truth import truth_path
+from cobotsafety.tools.generate_recording import main as generate_main
 
 ASSETS = files("cobotsafety.assets") / "recordings"
 JSON_KEYS = {"scenario", "recording", "robot", "controller", "ssm", "min_distance_seen_m", "min_distance_estimate_m",

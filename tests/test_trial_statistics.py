@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import bootstrap, rankdata
 
+from cobotsafety.trial.comparisons import compare_all
 from cobotsafety.trial.rank_tests import mann_whitney_test, signed_rank_test
 from cobotsafety.trial.statistics import (
     ABS_INTERACTION,
@@ -20,7 +21,6 @@ from cobotsafety.trial.statistics import (
     SLIDING,
     STOP,
     by_participant,
-    compare_all,
     describe,
     holm,
     mann_whitney,

@@ -61,7 +61,7 @@ from cobotsafety.app.scenes import PLANAR, make_scene
 from cobotsafety.app.uploads import UploadReceiver, check_upload_name
 from cobotsafety.app.status import StatusFacts, status_html, status_lines
 from cobotsafety.app.zones_editor import ZoneEditor
-from cobotsafety.cli.arguments import MAX_RATE_HZ, MIN_RATE_HZ
+from cobotsafety.app.tick_schedule import MAX_RATE_HZ, MIN_RATE_HZ
 from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotError
 from cobotsafety.human.recording import bundled_recording
 

@@ -23,6 +23,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+MIN_RATE_HZ = 100.0
+"""Slowest control rate accepted [Hz]: the filters are tested for steps up to 10 ms."""
+MAX_RATE_HZ = 2000.0
+"""Fastest control rate accepted [Hz]: one step takes 50-100 us, the loop sleeps between."""
+
 TICK_MEAN_WEIGHT = 0.1
 """Weight of the newest tick in the running mean of tick durations (about the last 10 ticks)."""
 

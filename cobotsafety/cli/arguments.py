@@ -11,12 +11,10 @@ import argparse
 import math
 from typing import NoReturn
 
+from cobotsafety.app.tick_schedule import MAX_RATE_HZ, MIN_RATE_HZ
 from cobotsafety.trial.pseudonyms import check_pseudonyms
 
-MIN_RATE_HZ = 100.0
-"""Slowest control rate accepted [Hz]: the filters are tested for steps up to 10 ms."""
-MAX_RATE_HZ = 2000.0
-"""Fastest control rate accepted [Hz]: one step takes 50-100 us, the loop sleeps between."""
+__all__ = ["MAX_RATE_HZ", "MIN_RATE_HZ"]  # the loop's rates, re-exported for the commands
 
 
 class CommandParser(argparse.ArgumentParser):

@@ -17,6 +17,12 @@ import numpy as np
 from cobotsafety.geometry.capsule import _capsule_kernel
 
 
+def truth_path(recording_path: Path) -> Path:
+    """The ground truth beside a generated recording: ``<name>_truth.npz``."""
+    name = Path(recording_path).name.split(".")[0]
+    return Path(recording_path).with_name(f"{name}_truth.npz")
+
+
 @dataclass(frozen=True)
 class TruthHuman:
     t_s: np.ndarray

@@ -190,7 +190,7 @@ def load_replay(scenario: str, replay_file: Path | None, scanner: str = "corner"
 
 def load_truth(recording_path: Path) -> TruthHuman | None:
     """The ground truth beside a recording (``NAME_truth.npz``), or None."""
-    from cobotsafety.tools.generate_recording import truth_path
+    from cobotsafety.experiments.approach_truth import truth_path
 
     path = truth_path(Path(recording_path))
     return TruthHuman.load(path) if path.is_file() else None

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from cobotsafety.experiments.approach_truth import truth_path
 from cobotsafety.human.body import CAPSULE_NAMES_5, BodyDimensions
 from cobotsafety.human.body_capsules import five_capsules
 from cobotsafety.human.recording import Recording, write_recording
@@ -219,11 +220,6 @@ def true_capsules(person: Scenario, t: np.ndarray):
     quats = np.stack([r.as_quat() for r in rotations], axis=1)  # (n, 5, 4), as stored: no renormalising
     caps = [five_capsules(xy[i], Rotation(quats[i], normalize=False, copy=False), BODY) for i in range(t.size)]
     return np.array([c.p0_b_m for c in caps]), np.array([c.p1_b_m for c in caps]), caps[0].radius_m, xy
-
-
-def truth_path(recording_path: Path) -> Path:
-    name = recording_path.name.split(".")[0]
-    return recording_path.with_name(f"{name}_truth.npz")
 
 
 def main(argv: list[str] | None = None) -> None:

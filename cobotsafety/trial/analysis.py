@@ -2,7 +2,7 @@
 
 ``analyze(directory, out)`` loads the log (problems reported with file and line), scores every
 record with ``cobotsafety.trial.scoring`` (so browser logs are scored by the same rule), runs
-``cobotsafety.trial.statistics.compare_all`` (the analysis ``plan.json`` declared) and writes
+``cobotsafety.trial.comparisons.compare_all`` (the analysis ``plan.json`` declared) and writes
 ``report.md`` with: the declaration, a descriptive table (mean ± SD, median, % change), the
 primary and secondary tests (statistic, p with its method and tail, Holm-adjusted p, effect
 size, bootstrap CI), the mixed model, the order checks ("not detected" with their power), the
@@ -19,7 +19,8 @@ import numpy as np
 
 from cobotsafety.trial.log_store import load
 from cobotsafety.trial.plan import ANALYSIS, read_plan
-from cobotsafety.trial.statistics import SLIDING, STOP, Result, compare_all, describe
+from cobotsafety.trial.comparisons import compare_all
+from cobotsafety.trial.statistics import SLIDING, STOP, Result, describe
 
 PAPER_SAVING = {"full": 0.20, "divided": 0.32}
 

@@ -11,7 +11,7 @@ separates the attention effect from practice).
 
 ``write_plan(directory, plan, seed)`` writes ``plan.json`` before the first trial: the trial
 order and ``ANALYSIS``, the pre-declared primary outcome, secondaries and checks that
-``statistics.compare_all`` runs (the report quotes it, with the time it was written).
+``comparisons.compare_all`` runs (the report quotes it, with the time it was written).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Power: how often each comparison comes out significant with N participants.
 
-``power(studies)`` runs ``statistics.compare_all`` (without bootstrap intervals) on each study's
+``power(studies)`` runs ``comparisons.compare_all`` (without bootstrap intervals) on each study's
 records and counts, per comparison and test, the studies whose decision p (Holm-adjusted where
 the comparison is in a family, else the raw p) is below alpha; a test that cannot run counts as
 not significant. ``simulated_power(N, K)`` feeds it K studies of N simulated participants
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cobotsafety.trial.statistics import compare_all
+from cobotsafety.trial.comparisons import compare_all
 
 
 @dataclass(frozen=True)

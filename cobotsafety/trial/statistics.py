@@ -261,26 +261,6 @@ def _interaction(name: str, t: dict, log: bool, with_ci: bool) -> list[Result]:
                         "secondary")]
 
 
-def compare_all(records: list[dict], with_ci: bool = True, order_power: bool = True) -> list[Result]:
-    """Every declared comparison (``plan.ANALYSIS``), Holm-adjusted within its family."""
-    from cobotsafety.trial.mixed_model import interaction_model  # noqa: PLC0415
-
-    t = by_participant(records)
-    results: list[Result] = []
-    for attention in ("full", "divided"):
-        results += _both(f"{attention} attention: {TIME}", t, attention, completion, "less", with_ci, "primary")
-    for attention in ("full", "divided"):
-        results += _both(f"{attention} attention: {SCORE}", t, attention, score, "greater", with_ci, "secondary")
-    results += _both(f"divided attention: {PER_WORD}", t, "divided", errors_per_word, "less", with_ci, "secondary")
-    results += _interaction(LOG_INTERACTION, t, True, with_ci)
-    results += _interaction(ABS_INTERACTION, t, False, with_ci)
-    results += _both(f"divided attention: {RESPONSE}", t, "divided", median_response, "less", with_ci, "secondary")
-    results.append(interaction_model(records))
-    for attention in ("full", "divided"):
-        results.append(order_effect(t, attention, with_ci, order_power))
-    return holm(results)
-
-
 def holm(results: list[Result]) -> list[Result]:
     """``p_holm`` for every primary and secondary result, Holm within (role, test); results
     without a p stay out of the family (and keep ``p_holm`` None)."""
