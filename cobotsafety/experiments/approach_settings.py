@@ -10,10 +10,14 @@ match the paper.
 13855, T_r = 0.1 s, C = 0, Z_d = 0.05 m, Z_r = 0.01 m, braking at 3 m/s^2: T_s = v_r / a,
 B = v_r^2 / 2a):
 
-* ``SPEED_LIMIT_M_S`` = 0.5 m/s per axis of the end-effector command: the arm step's default
-  (``ArmParams.max_speed_m_s``) since the first session, before any human experiment existed;
-  the end-effector may reach ``ROBOT_SPEED_MAX_M_S`` = sqrt(3) x 0.5 = 0.87 m/s on a diagonal.
-  Paper 2 gives no speed limit (its 355 / 548 mm/s are measured peaks, compared as results).
+* ``SPEED_LIMIT_M_S`` = 0.5 m/s: the end-effector speed cap of the arm's command, the
+  controller's default (``FilterSettings.max_speed_m_s``) since the first session, before any
+  human experiment existed. These settings were fixed when that cap was per axis, so ``S`` takes
+  the diagonal's ``ROBOT_SPEED_MAX_M_S`` = sqrt(3) x 0.5 = 0.87 m/s; the cap is now a norm (a
+  command never exceeds 0.5 m/s; a retreat from a person may, up to the robot's own limit), and
+  the settings are kept as fixed (conservative for commanded motion), not re-chosen after the
+  results. Paper 2 gives no speed limit (its 355 / 548 mm/s are measured peaks, compared as
+  results).
 * ``CRITICAL_M`` = S without its stopping terms at that speed: v_h T_r + v_r T_r + C + Z_d + Z_r
   = 0.16 + 0.087 + 0.06 = 0.307 m. The distance every controller is told to keep (the
   anticipative filter's and the stop baseline's critical distance, the field's ``d_cr``):
@@ -29,9 +33,9 @@ B = v_r^2 / 2a):
   the limit, so the peaks are the evasions), ``ATTRACTION_LIMIT_M_S`` = ``SPEED_LIMIT_M_S`` for
   the PI's saturation (eq. 15).
 * ``CONTROL_RATE_HZ`` = 275 Hz (paper 2's robot update rate).
-* SSM's protective stop (``--ssm stop``) brakes at the smaller of the step's 3 m/s^2 and the
-  deceleration the robot's joint acceleration limits allow at its home pose
-  (``ssm.braking_deceleration_m_s2``; limits from ``joint_acceleration_limits``).
+* SSM's protective stop (``--ssm stop``) assumes braking at the smaller of ``SSM``'s 3 m/s^2 and
+  the deceleration the robot's joint acceleration limits allow at its home pose
+  (``ssm.braking_deceleration_m_s2``; limits from ``assets/limits/robot_limits.toml``).
 """
 
 from __future__ import annotations
@@ -85,6 +89,6 @@ def joint_acceleration_limits(robot: str) -> tuple[np.ndarray, str]:
 
 def as_dict() -> dict:
     """The settings in a JSON report."""
-    return {"speed_limit_per_axis_m_s": SPEED_LIMIT_M_S, "critical_m": round(CRITICAL_M, 4),
+    return {"speed_limit_m_s": SPEED_LIMIT_M_S, "critical_m": round(CRITICAL_M, 4),
             "activation_m": round(ACTIVATION_M, 4), "k_rep_m_s": K_REP_M_S, "task_speed_m_s": TASK_SPEED_M_S,
             "control_rate_hz": CONTROL_RATE_HZ}

@@ -8,7 +8,7 @@ stream takes the track's filtered position and velocity (``torso_velocity_at``);
 fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), the one
 estimate of the human's motion the controller uses. Per IMU
 sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
-orientations slerped (``sensors.timing``), the chain of eqs. 7-12, then the conservative rules
+orientations slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules
 of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
 ``until_s`` hides samples stamped after it (a causal replay passes ``until_s = t_s``).
 
