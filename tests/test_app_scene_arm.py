@@ -156,7 +156,7 @@ def test_limits_that_bind_are_drawn_where_they_bind():
         drive((1.5, 0.0, 0.4), "reach extended")
         assert "reach extended" in view.highlighted() and view.marks.nodes["reach extended"].visible
         assert not view.marks.nodes["panda_joint4 arc"].visible
-        shoulder, _, extended = reach_geometry(demo.scene.robot.constraints)
+        shoulder, _, extended = reach_geometry(demo.scene.robot.limitations)
         radii = np.linalg.norm(view.marks.nodes["reach extended"].points.reshape(-1, 3) - shoulder, axis=1)
         np.testing.assert_allclose(radii, extended, rtol=1e-5)
 

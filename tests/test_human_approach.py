@@ -193,7 +193,7 @@ def test_exp2_anticipative_is_not_the_stop_baseline(exp2_runs):
     a, s = exp2_runs["anticipative"].metrics, exp2_runs["stop"].metrics
     assert a.min_distance_true_m > s.min_distance_true_m + 0.03
     assert a.peak_ee_speed_m_s > 0.1 and s.peak_ee_speed_m_s < 1e-3
-    assert a.stopped_time_s == 0.0 < s.stopped_time_s
+    assert a.stopped_time_s < 0.5 * s.stopped_time_s  # it yields while the walker passes, the stop holds
 
 
 def _torso(p_m, v_m_s=None, radius_m=0.15):

@@ -66,7 +66,9 @@ from cobotsafety.errors import CobotSafetyError, RecordingError, UnknownRobotErr
 from cobotsafety.human.recording import bundled_recording
 
 logger = logging.getLogger(__name__)
-logging.getLogger("cobotsafety.arm.controller").addFilter(RepeatedWarningFilter())
+CONTROLLER_LOG = logging.getLogger("cobotsafety.arm.controller")
+LOG_FILTER = RepeatedWarningFilter()
+"""While a demo runs, the controller's repeated warnings reach its terminal once per interval."""
 
 
 @dataclass(frozen=True)
@@ -704,6 +706,7 @@ class DemoApp:
         # thread or the websocket loop serialise frames: hand it over every 0.5 ms instead.
         sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
         settle_heap()
+        CONTROLLER_LOG.addFilter(LOG_FILTER)  # once, however many demos run
         self.loop.start()
         self._stop.clear()
         self._render_thread = threading.Thread(target=self._render_run, name="cobotsafety-render", daemon=True)
@@ -714,6 +717,7 @@ class DemoApp:
         return self
 
     def stop(self) -> None:
+        CONTROLLER_LOG.removeFilter(LOG_FILTER)
         self._stop.set()
         if self._render_thread is not None:
             self._render_thread.join(timeout=2.0)

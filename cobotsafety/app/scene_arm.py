@@ -151,7 +151,7 @@ class ArmView:
         state = teleop.state
         set_initial_view(server, CAMERA_POSITION_M, CAMERA_LOOK_AT_M)
         light_scene(server)
-        floor_z = table_height_m(getattr(teleop, "constraints", ())) - FLOOR_BELOW_TABLE_M
+        floor_z = table_height_m(getattr(teleop, "limitations", ())) - FLOOR_BELOW_TABLE_M
         self.grid = server.scene.add_grid(f"{ROOT}/grid", width=4.0, height=4.0, cell_size=0.25, section_size=1.0,
                                           position=(0.5, 0.0, floor_z))
         self.vocabulary = vocabulary_of(teleop)

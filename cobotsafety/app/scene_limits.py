@@ -46,19 +46,19 @@ def _perpendicular(axis: np.ndarray) -> np.ndarray:
     return side / np.linalg.norm(side)
 
 
-def table_height_m(constraints) -> float:
-    """The table constraint's height [m] (an object with ``height_m``), 0 without one."""
-    for constraint in constraints:
-        if hasattr(constraint, "height_m") and getattr(constraint, "name", "") == "table":
-            return float(constraint.height_m)
+def table_height_m(limitations) -> float:
+    """The table's height [m] (a limitation with ``height_m`` named "table"), 0 without one."""
+    for limitation in limitations:
+        if hasattr(limitation, "height_m") and getattr(limitation, "name", "") == "table":
+            return float(limitation.height_m)
     return 0.0
 
 
-def reach_geometry(constraints) -> tuple[np.ndarray, float, float] | None:
-    """``(shoulder (3,), inner [m], extended [m])`` of the reach constraint, or None."""
-    for constraint in constraints:
-        if all(hasattr(constraint, key) for key in ("shoulder", "inner_m", "outer_m")):
-            return np.asarray(constraint.shoulder, dtype=float), float(constraint.inner_m), float(constraint.outer_m)
+def reach_geometry(limitations) -> tuple[np.ndarray, float, float] | None:
+    """``(shoulder (3,), inner [m], extended [m])`` of the reach limitation, or None."""
+    for limitation in limitations:
+        if all(hasattr(limitation, key) for key in ("shoulder", "inner_m", "outer_m")):
+            return np.asarray(limitation.shoulder, dtype=float), float(limitation.inner_m), float(limitation.outer_m)
     return None
 
 
@@ -73,8 +73,7 @@ class LimitMarks:
         ``"<joint> needle"``, ``"<joint> ring"``, ``"reach inner"``, ``"reach extended"``,
         ``"table"``, ``"table bound"``."""
         self.shown: tuple[str, ...] = ()
-        constraints = getattr(teleop, "constraints", ())
-        z = table_height_m(constraints)
+        z = table_height_m(getattr(teleop, "limitations", ()))
         (x0, x1), (y0, y1) = TABLE_SIZE_M
         centre = ((x0 + x1) / 2, (y0 + y1) / 2, z - TABLE_THICKNESS_M / 2)
         size = (x1 - x0, y1 - y0, TABLE_THICKNESS_M)
@@ -141,7 +140,7 @@ class LimitMarks:
         key = f"reach {side}"
         if key in self.nodes:
             return True
-        geometry = reach_geometry(getattr(self.teleop, "constraints", ()))
+        geometry = reach_geometry(getattr(self.teleop, "limitations", ()))
         if geometry is None:
             return False
         shoulder, inner, extended = geometry

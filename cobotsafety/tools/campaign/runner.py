@@ -52,10 +52,15 @@ def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], d
 
     from cobotsafety.tools.campaign.person_run import run_person
 
-    logging.getLogger("cobotsafety").setLevel(logging.ERROR)
-    start = time.process_time()
-    results = run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s)
-    return results, time.process_time() - start
+    logger = logging.getLogger("cobotsafety")
+    level = logger.level
+    logger.setLevel(logging.ERROR)  # for this task only (it may run in the caller's process)
+    try:
+        start = time.process_time()
+        results = run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s)
+        return results, time.process_time() - start
+    finally:
+        logger.setLevel(level)
 
 
 def _save(out_dir: Path, outcome: tuple[list[dict], float], cpu: list) -> None:
