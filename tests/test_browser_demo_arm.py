@@ -138,14 +138,20 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
     app.replay.speed = 4.0  # on to the return at 17 s: leaves (out of the scanner's clip by ~10 s)
     seen: list[dict] = []
 
+    def longest_absence(data: dict) -> tuple[float, int, int]:
+        """(seconds, last index before, first index after) of the longest time nobody was there."""
+        spans = runs(data["y"])
+        gaps = [(data["x"][b[0]] - data["x"][a[1]], a[1], b[0]) for a, b in zip(spans, spans[1:])]
+        return max(gaps, default=(0.0, 0, 0))
+
     def returned() -> bool:
         seen[:] = [chart(page)]
-        return len(runs(seen[0]["y"])) >= 2
+        return longest_absence(seen[0])[0] > 2.0  # left (a short dropout of the legs is not leaving)
 
     wait_until(returned, timeout_s=120, what="the co-worker to leave and come back on the chart")
     app.replay.playing = False
     data = seen[0]
-    (_, end), (start, _) = runs(data["y"])[-2:]
+    _, end, start = longest_absence(data)
     gap = page.evaluate(RED_IN_CHART_JS, [data["x"][end], data["x"][start], 6])  # 6 px: the end dots' radius
     assert gap["width"] > 10 and gap["red"] == 0, gap  # nothing drawn while nobody was there
     present = page.evaluate(RED_IN_CHART_JS, [data["x"][0], data["x"][-1], 0])
