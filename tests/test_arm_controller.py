@@ -309,3 +309,20 @@ def test_joint_limits_hold_when_the_arm_is_driven_into_them():
             assert np.all(q[iq] >= model.lower[iq] - CROSSING_M) and np.all(q[iq] <= model.upper[iq] + CROSSING_M)
             met |= {name for name in report.binding if name.endswith((" lower", " upper"))}
     assert met, "no joint limit was met"
+
+
+def test_the_reported_joint_acceleration_ratio_is_the_steps_own():
+    """``ArmStepReport.joint_acceleration_ratio`` (the demo's acceleration chart) equals the
+    largest |second difference of q| / dt^2 / limit of the same step, measured from the states."""
+    controller = ArmController("panda")
+    dt = 1e-3
+    limits = controller.model.limits.acceleration_rad_s2
+    q = [controller.state.q.copy(), controller.state.q.copy()]  # at rest before the first step
+    ratios = []
+    for k in range(300):
+        report = controller.step(np.array([0.2, -0.1, 0.05]) if k < 150 else np.zeros(3), dt)
+        q.append(controller.state.q.copy())
+        measured = np.max(np.abs(q[-1] - 2 * q[-2] + q[-3]) / dt ** 2 / limits)
+        assert report.joint_acceleration_ratio == pytest.approx(measured, rel=1e-6, abs=1e-9)
+        ratios.append(report.joint_acceleration_ratio)
+    assert 0.1 < max(ratios) <= 1.0 + 1e-9

@@ -242,6 +242,7 @@ class DemoApp:
         self.zones.reset()  # the scene's built-in zones are selectable from the first load
         self.plots = Plots(self.server, config.rate_hz, "Robot-human distance")
         self.plots.distance.visible = self.scene.dim == 3
+        self.plots.acceleration.visible = self.scene.dim == 3  # the planar arm has no joint limits table
         self.history = PlotHistory()
         self.vocabulary = vocabulary_of(self.scene.robot)
         self._dragging_client: int | None = None
@@ -543,6 +544,7 @@ class DemoApp:
                 self.history.clear()
                 self.human.visible = scene.dim == 3
                 self.plots.distance.visible = scene.dim == 3
+                self.plots.acceleration.visible = scene.dim == 3
                 self.panel.replay_folder.visible = scene.dim == 3
                 self.vocabulary = vocabulary_of(scene.robot)
                 if scene.dim == 3 and self._pending is not None and self._preload_thread is None:

@@ -1,7 +1,11 @@
-"""Live uPlot graphs: minimum distance [mm], commanded vs executed speed [mm/s], loop rate [Hz].
+"""Live uPlot graphs: minimum distance [mm], commanded vs executed speed [mm/s], the worst
+joint's acceleration against its limit [%] (3D arms), loop rate [Hz].
 
 ``PlotHistory`` keeps the last ``samples`` rows (the server adds one with each status refresh);
-``Plots`` pushes them to three ``gui.add_uplot`` handles made once. The speed and rate charts
+``Plots`` pushes them to four ``gui.add_uplot`` handles made once. The acceleration chart shows
+the step's largest |q̈_j| / limit_j (``ArmStepReport.joint_acceleration_ratio``) in percent
+beside the 100 % limit; values above ``ACCELERATION_RANGE_PCT``'s top are drawn at it (the
+title says so): a safety-over-smoothness step. The speed and rate charts
 have fixed, labelled y ranges (an empty chart does not read 0-100, small speeds do not read
 "0 0 0"); the commanded speed is drawn dashed and wider under the executed one.
 
@@ -27,6 +31,7 @@ DISTANCE_RANGE_MM = (0.0, 1000.0)
 """The distance chart's smallest y range [mm]; it grows in steps of ``DISTANCE_STEP_MM``."""
 DISTANCE_STEP_MM = 250.0
 SPEED_RANGE_MM_S = (0.0, 300.0)
+ACCELERATION_RANGE_PCT = (0.0, 150.0)
 DISTANCE_RGB = "#d62728"
 
 
@@ -56,7 +61,8 @@ class PlotHistory:
 
     def __init__(self, samples: int = 120):
         self.columns = {key: deque(maxlen=samples) for key in
-                        ("t_s", "min_distance_m", "speed_commanded_m_s", "speed_executed_m_s", "rate_hz")}
+                        ("t_s", "min_distance_m", "speed_commanded_m_s", "speed_executed_m_s", "rate_hz",
+                         "joint_acceleration_ratio")}
 
     def add(self, snapshot: LoopSnapshot, min_distance_m: float | None) -> None:
         times = self.columns["t_s"]
@@ -67,7 +73,8 @@ class PlotHistory:
         executed = float(np.linalg.norm(report.v_executed_m_s)) if report is not None else 0.0
         row = {"t_s": snapshot.t_s, "min_distance_m": np.nan if min_distance_m is None else min_distance_m,
                "speed_commanded_m_s": commanded, "speed_executed_m_s": executed,
-               "rate_hz": snapshot.stats.get("rate_hz", 0.0)}
+               "rate_hz": snapshot.stats.get("rate_hz", 0.0),
+               "joint_acceleration_ratio": getattr(report, "joint_acceleration_ratio", np.nan)}
         for key, value in row.items():
             self.columns[key].append(float(value))
 
@@ -80,7 +87,7 @@ class PlotHistory:
 
 
 class Plots:
-    """Three uPlot charts in the current GUI container."""
+    """Four uPlot charts in the current GUI container (the acceleration chart for 3D arms)."""
 
     def __init__(self, server: viser.ViserServer, rate_hz: float, distance_title: str = "Minimum distance"):
         empty = np.zeros(1)  # one row, not none: viser's chart keeps its x range relative to the data's
@@ -99,6 +106,13 @@ class Plots:
             (uplot.Series(label="t [s]"), line("commanded [mm/s]", "#1f77b4", dash=(8.0, 5.0), width=4),
              line("executed [mm/s]", "#2ca02c")),
             title="End-effector speed", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales(SPEED_RANGE_MM_S), axes=_axes("mm/s"))
+        top = ACCELERATION_RANGE_PCT[1]
+        self.acceleration = server.gui.add_uplot(
+            (empty, empty, empty),
+            (uplot.Series(label="t [s]"), line("limit [%]", "#7f7f7f", dash=(6.0, 4.0)),
+             line("worst joint [%]", "#ff7f0e")),
+            title=f"Joint acceleration / limit (at {top:.0f} %: beyond)", aspect=2.0, padding=(18, 14, 0, 0),
+            scales=_scales(ACCELERATION_RANGE_PCT), axes=_axes("%"))
         self.rate = server.gui.add_uplot(
             (empty, empty), (uplot.Series(label="t [s]"), line("loop [Hz]", "#9467bd")),
             title="Control-loop rate", aspect=2.0, padding=(18, 14, 0, 0), scales=_scales((0.0, 1.25 * rate_hz)), axes=_axes("Hz"))
@@ -137,4 +151,7 @@ class Plots:
         if t.size < 2:
             return
         self.speed.data = (t, history.array("speed_commanded_m_s") * 1e3, history.array("speed_executed_m_s") * 1e3)
+        if self.acceleration.visible:
+            percent = np.minimum(history.array("joint_acceleration_ratio") * 100.0, ACCELERATION_RANGE_PCT[1])
+            self.acceleration.data = (t, np.full(t.shape, 100.0), percent)
         self.rate.data = (t, history.array("rate_hz") * 1.0)

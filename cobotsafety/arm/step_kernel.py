@@ -93,9 +93,9 @@ def decode_row(code: int) -> tuple[int, int, int]:
 def output_layout(nq, nv, n_caps):  # pragma: no cover - compiled
     """Offsets in ``out_f``: q_next, qdot, p_ee, R_ee, J6, cap_p0, cap_p1, v_commanded,
     v_executed, min_distance, p_robot, p_human, net_scale, worst_violation, motion_violation,
-    brake_factor (the largest factor by which a bound exceeded the motion limits), and the total
-    size."""
-    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1)
+    brake_factor (the largest factor by which a bound exceeded the motion limits), the step's
+    joint acceleration ratio (max over joints of |qddot| / limit), and the total size."""
+    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1)
     offsets = np.zeros(len(sizes) + 1, dtype=np.int64)
     for i in range(len(sizes)):
         offsets[i + 1] = offsets[i] + sizes[i]
@@ -639,6 +639,10 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     out_i[I_MOTION_COUNT] = n_motion
     out_i[I_SMOOTHNESS] = int((level >= 1 and motion_violation > tolerance) or net_scale < 1.0)
     out_i[I_PROTECTIVE] = int(protective)
+    acceleration_ratio = 0.0
+    for j in range(nv):
+        acceleration_ratio = max(acceleration_ratio, abs(qdot_exec[j] - qdot_prev[j]) / dt_s / acc[j])
+    out_f[offsets[16]] = acceleration_ratio
     state_f[0:nq] = q_next
     state_f[nq:nq + nv] = qdot_exec
     state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s

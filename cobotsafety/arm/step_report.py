@@ -100,6 +100,11 @@ class ArmStepReport:
         return {"net_scale": float(o[self._o[12]]), "qdot": self._part(1), "level": int(self._out_i[1]),
                 "brake_factor": float(o[self._o[15]]), "p_before_m": self._p_before}
 
+    @property
+    def joint_acceleration_ratio(self) -> float:
+        """This step's largest joint acceleration over that joint's limit (1 = the limit)."""
+        return float(self._out_f[self._o[16]])
+
     def __repr__(self) -> str:
         return (f"ArmStepReport(p_base_ee_m={self.p_base_ee_m}, v_commanded_m_s={self.v_commanded_m_s}, "
                 f"binding={self.binding}, stopped={self.stopped}, reason={self.reason!r})")
