@@ -135,7 +135,7 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
     assert changed > 3000, f"hiding the person changed only {changed} pixels: they were not drawn"
     app.replay.playing = True
 
-    app.replay.speed = 4.0  # on to the return at 17 s: leaves (out of the scanner's clip by ~10 s)
+    app.replay.speed = 2.0  # on to the return at 17 s: leaves (out of the scanner's clip by ~10 s)
     seen: list[dict] = []
 
     def longest_absence(data: dict) -> tuple[float, int, int]:
@@ -146,7 +146,7 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
 
     def returned() -> bool:
         seen[:] = [chart(page)]
-        return longest_absence(seen[0])[0] > 4.0  # left (a short dropout of the legs is not leaving)
+        return longest_absence(seen[0])[0] > 2.5  # left (a short dropout of the legs is not leaving)
 
     wait_until(returned, timeout_s=120, what="the co-worker to leave and come back on the chart")
     app.replay.playing = False
