@@ -96,3 +96,50 @@ def test_the_person_is_drawn_opaque_and_never_below_the_floor(app):
             if human.present:
                 lowest = min(lowest, float((np.minimum(human.p0_b_m[:, 2], human.p1_b_m[:, 2]) - human.radius_m).min()))
         assert floor_z < lowest < np.inf, (name, lowest)
+
+
+def test_the_control_loop_alone_keeps_the_controllers_human_fresh(app):
+    """Safety data flows through the control thread: with no frame rendered, the replayed human
+    reaches the controller every ``human_period_s`` of loop time and moves with the replay."""
+    app.replay.seek(4.0)
+    app.replay.playing = True
+    app.replay.speed = 1.0
+    controller = app.loop.robot
+    given = []
+    original = controller.set_human
+    controller.set_human = lambda human: (given.append((app.loop.snapshot().t_s, human)), original(human))[1]
+    try:
+        for _ in range(300):  # 0.3 s of control at 1 kHz, no render_once
+            app.loop.step_once()
+    finally:
+        del controller.set_human
+    times = np.array([t for t, _ in given])
+    assert len(given) >= 0.3 / app.loop.settings.human_period_s - 2
+    assert np.max(np.diff(times)) <= app.loop.settings.human_period_s + 1.5e-3
+    last = given[-1][1]
+    sensor_age = max([0.0, *(a for a in last.ages_s.values() if np.isfinite(a))])  # the scans' own age
+    assert controller.human_age_s() - sensor_age <= app.loop.settings.human_period_s + 1.5e-3
+    stamps = [h.t_s for _, h in given if h is not None]
+    assert stamps[-1] - stamps[0] == pytest.approx(0.3, abs=0.01)  # the replay's time, moving on
+    app.replay.playing = False
+
+
+def test_a_source_that_stops_lets_the_watchdog_grow_then_stop_the_arm(app):
+    """The human source goes quiet (the loop no longer gives the controller a human): the model
+    ages, first grows (the distance shrinks), then the arm is stopped and the status says why."""
+    app.replay.playing = False
+    app.replay.seek(5.0)
+    app.loop.reset()
+    app.loop.step_once()  # one fresh human
+    source, app.loop.human_source = app.loop.human_source, None
+    try:
+        watchdog = app.loop.robot.watchdog
+        reports = []
+        for _ in range(int((watchdog.stop_after_s + 0.1) / app.loop.settings.dt_s)):
+            reports.append(app.loop.step_once())
+        grown = [r for r in reports if "grown" in r.human_status]
+        assert grown and "stopped" in reports[-1].human_status and reports[-1].stopped
+        assert grown[-1].min_distance_m < reports[0].min_distance_m  # the grown model is nearer
+    finally:
+        app.loop.human_source = source
+        app.loop.reset()

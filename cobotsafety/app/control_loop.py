@@ -290,7 +290,10 @@ class ControlLoop:
         source.advance(dt_s)
         if self._t_s + 1e-12 < self._human_due_s:
             return
-        self._human_due_s = self._t_s + self.settings.human_period_s
+        period = self.settings.human_period_s
+        self._human_due_s += period  # on the period's own grid: 300 Hz on average at any loop rate
+        if self._human_due_s <= self._t_s:  # fell behind (a stall): the next read one period from now
+            self._human_due_s = self._t_s + period
         self._human = source.capsules()
         self._robot.set_human(self._human)
 

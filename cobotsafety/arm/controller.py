@@ -397,8 +397,8 @@ class ArmController:
                     yielding = True
             if yielding:
                 stopped, reason = True, "yielding: " + (reason or "the retreats contradicted each other")
-        if self.p_hold_m is not None:  # released: the return is ours, not a command refused
-            stopped = False
+        if self.p_hold_m is not None and not (watchdog_stop or protective):
+            stopped = False  # released: the return is ours, not a command refused
         report = ArmStepReport(out_f, out_i, self._offsets, self._name, v_user, stopped, reason, self.contradictions,
                                smoothness != 0, self.smoothness_steps, human_status, before)
         if stopped and not reason and report.binding:
