@@ -40,3 +40,16 @@ def shared_data() -> Path:
 def full_bags(shared_data) -> bool:
     """True with the full bags of ../shared/data, False with the excerpt."""
     return shared_data == SHARED_DATA
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """A headless Chromium context (``browser_page.launch``) for one test module."""
+    from playwright.sync_api import sync_playwright
+
+    from browser_page import launch
+
+    with sync_playwright() as playwright:
+        context = launch(playwright)
+        yield context
+        context.close()

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from browser_page import (PANEL_X, camera_of, coarse_difference, colour_pixels, launch, open_page, rgb, steady_rgb, to_screen,
+from browser_page import (PANEL_X, camera_of, coarse_difference, colour_pixels, open_page, rgb, steady_rgb, to_screen,
                           wait_until)
 from PIL import Image
 
@@ -33,16 +33,6 @@ def app():
     demo = DemoApp(DemoConfig(port=free_local_port())).start()
     yield demo
     demo.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        context = launch(playwright)
-        yield context
-        context.close()
 
 
 def gizmo_x_mask(page) -> np.ndarray:

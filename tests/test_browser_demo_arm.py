@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 import pytest
-from browser_page import PANEL_X, camera_of, colour_mask, launch, open_page, rgb, to_screen, wait_until
+from browser_page import PANEL_X, camera_of, colour_mask, open_page, rgb, to_screen, wait_until
 
 from cobotsafety.app import draw
 from cobotsafety.app.demo_app import BUNDLED_RECORDINGS, DEFAULT_RECORDING, DemoApp, DemoConfig
@@ -57,16 +57,6 @@ def app():
     demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port())).start()
     yield demo
     demo.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        context = launch(playwright)
-        yield context
-        context.close()
 
 
 def chart(page) -> dict:

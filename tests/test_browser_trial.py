@@ -7,20 +7,17 @@ the colour word appears only once the trial has started."""
 from __future__ import annotations
 
 import re
-import tempfile
 import time
 
 import numpy as np
 import pytest
+from browser_page import launch
 
 from cobotsafety.ports import free_local_port
 from cobotsafety.trial.trial_app import TrialServer
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-        "--disable-sync", "--no-first-run"]
 CONDITION_WORDS = re.compile(r"anticipative|sliding|stop\b|reactive|condition", re.IGNORECASE)
 WORD = re.compile(r"RED|GREEN|BLUE|YELLOW")
 
@@ -41,9 +38,7 @@ def test_participant_and_operator_views(tmp_path):
     server = TrialServer(tmp_path, ["P01", "P02"], seed=3, port=free_local_port()).start_server()
     try:
         with sync_playwright() as playwright:
-            context = playwright.chromium.launch_persistent_context(
-                tempfile.mkdtemp(prefix="cobotsafety-chromium-"), executable_path=CHROMIUM, headless=True,
-                args=ARGS, viewport={"width": 1200, "height": 800})
+            context = launch(playwright)
             context.set_default_timeout(90_000)
             participant = context.new_page()
             participant.goto(server.url)
