@@ -337,7 +337,6 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     qdot_prev = state_f[nq:nq + nv].copy()
     qddot_prev = state_f[nq + nv:nq + 2 * nv].copy()
     u_prev = state_f[nq + 2 * nv:nq + 2 * nv + 3].copy()
-    a_ee_prev = state_f[nq + 2 * nv + 3:nq + 2 * nv + 6].copy()
     v = v_desired.copy()
     R_ref = reference_f[0:9].reshape((3, 3))
     speed_cap = min(reference_f[9], max_speed, ee_limits[0])

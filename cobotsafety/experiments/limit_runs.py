@@ -243,7 +243,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from cobotsafety.arm.motion_limits import load_motion_limits  # noqa: F401 - a clear error first
     from cobotsafety.arm.robots import robot_spec
 
     robot_spec(args.robot)
