@@ -41,9 +41,6 @@ B = v_r^2 / 2a):
 from __future__ import annotations
 
 import math
-from functools import lru_cache
-
-import numpy as np
 
 from cobotsafety.arm.ssm import SsmParams, protective_separation_m
 
@@ -57,34 +54,6 @@ K_REP_M_S = SPEED_LIMIT_M_S
 TASK_SPEED_M_S = 0.12
 ATTRACTION_LIMIT_M_S = SPEED_LIMIT_M_S
 CONTROL_RATE_HZ = 275.0
-
-#: Joint acceleration limits [rad/s^2] used until the motion-limits table (issue 20,
-#: ``cobotsafety.arm.motion_limits``) is on this branch. Panda: Franka's published limits. iiwa: KUKA publishes none; "a few rad/s^2"
-#: (5 on every joint) is an assumption, stated wherever it is used.
-FALLBACK_JOINT_ACCEL_RAD_S2 = {
-    "panda": (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
-    "iiwa": (5.0,) * 7,
-}
-
-
-@lru_cache(maxsize=None)
-def joint_acceleration_limits(robot: str) -> tuple[np.ndarray, str]:
-    """``(limits (nv,) [rad/s^2], source)``: from the motion-limits table
-    (``cobotsafety.arm.motion_limits.load_motion_limits``, issue 20) once it is on this branch,
-    else ``FALLBACK_JOINT_ACCEL_RAD_S2`` (source ``"assumed"``)."""
-    try:
-        from cobotsafety.arm.motion_limits import load_motion_limits
-    except ImportError:
-        load_motion_limits = None
-    if load_motion_limits is not None:
-        from cobotsafety.arm.robots import load_robot
-
-        model, _, _ = load_robot(robot)
-        names = [model.names[j] for j in range(1, model.njoints)]
-        return np.asarray(load_motion_limits(robot, names).acceleration_rad_s2, dtype=float), "robot_limits.toml"
-    if robot not in FALLBACK_JOINT_ACCEL_RAD_S2:
-        raise KeyError(f"no joint acceleration limits for robot {robot!r}")
-    return np.asarray(FALLBACK_JOINT_ACCEL_RAD_S2[robot], dtype=float), "assumed"
 
 
 def as_dict() -> dict:

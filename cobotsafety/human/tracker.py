@@ -5,8 +5,10 @@ eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTrac
 paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
 is the confirmed person nearest the robot base; while that person's legs are seen, the torso
 stream takes the track's filtered position and velocity (``torso_velocity_at``); a human seen
-fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), the one
-estimate of the human's motion the controller uses. Per IMU
+fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), plus, with
+five fresh IMUs, each end point's own motion relative to the torso (a backward difference of
+the IMU chain over ``ARM_VELOCITY_WINDOW_S``): the one estimate of the human's motion the
+controller uses (a reaching hand is seen coming, not only where it is). Per IMU
 sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
 orientations slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules
 of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
@@ -41,6 +43,9 @@ from cobotsafety.sensors.streams import QuaternionStream, VectorStream, quaterni
 MAX_RANGE_M = 1.4
 #: Eq. 1 weight of the newest scan.
 TIME_FILTER_ALPHA = 0.8
+#: The window [s] of the arms' velocity (a backward difference of their IMU poses): the IMUs'
+#: staleness threshold (``StalePolicy.imu_stale_after_s``), 15 samples at paper 2's ~300 Hz.
+ARM_VELOCITY_WINDOW_S = 0.05
 
 
 class HumanTracker:
@@ -143,7 +148,7 @@ class HumanTracker:
             distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
             if could_have_left(distance, torso_age, self.max_range_m, self.policy):
                 return HumanCapsules.absent(t_s, "nobody in range")
-        caps = None
+        caps, relative = None, None
         if not self.imus:
             caps = conservative_capsules(t_s, xy, torso_age, self.body, policy=self.policy)
         else:
@@ -154,6 +159,8 @@ class HumanTracker:
                 # One compiled call for the fresh 5-capsule human (None: stale or not finite).
                 caps = fresh_five_capsules(t_s, xy, torso_age, q0, q1, frac, self._r_b_ref_matrices,
                                            self._body_vector, ages, self.policy)
+                if caps is not None:
+                    relative = self._arm_velocities(caps, streams, xy, t_s, until_s)
             if caps is None:  # the readable path: a silent IMU -> 1 capsule
                 if all(np.isfinite(a) for a in ages.values()):
                     r_b_imu = self._r_b_ref_all * rotations_at(streams, t_s, until_s)  # eq. 6, batched
@@ -165,17 +172,37 @@ class HumanTracker:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)
         elif caps.present and torso_age <= self.policy.laser_stale_after_s:
-            caps = self._with_torso_velocity(caps, t_s, until_s)
+            caps = self._with_velocities(caps, t_s, until_s, relative)
         return caps
 
-    def _with_torso_velocity(self, caps: HumanCapsules, t_s: float, until_s: float | None) -> HumanCapsules:
-        """The capsules moving with the tracked torso (the person tracker's Kalman velocity, the
-        one estimate of the human's motion): every end point at the torso's horizontal velocity.
-        The arms' own motion relative to the torso is not estimated (their fresh IMU pose is used
-        each step); while the torso is not seen, no velocity (the stale growth covers it)."""
+    def _arm_velocities(self, caps: HumanCapsules, streams, xy: np.ndarray, t_s: float,
+                        until_s: float | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """The end points' velocities relative to the torso (k, 3) x 2 [m/s]: the IMU chain
+        (eqs. 6-12) evaluated ``ARM_VELOCITY_WINDOW_S`` earlier with the same torso position, the
+        backward difference of the two poses. None when the earlier pose is not available."""
+        earlier = t_s - ARM_VELOCITY_WINDOW_S
+        q0, q1, frac = quaternion_brackets(streams, earlier, until_s)
+        ages = {name: 0.0 for name in IMU_NAMES}
+        before = fresh_five_capsules(earlier, xy, 0.0, q0, q1, frac, self._r_b_ref_matrices, self._body_vector,
+                                     ages, self.policy)
+        if before is None:
+            return None
+        return ((caps.p0_b_m - before.p0_b_m) / ARM_VELOCITY_WINDOW_S,
+                (caps.p1_b_m - before.p1_b_m) / ARM_VELOCITY_WINDOW_S)
+
+    def _with_velocities(self, caps: HumanCapsules, t_s: float, until_s: float | None,
+                         relative: tuple[np.ndarray, np.ndarray] | None) -> HumanCapsules:
+        """The capsules' end-point velocities: the tracked torso's (the person tracker's Kalman
+        velocity) on every end point, plus, with five fresh IMUs, each end point's own motion
+        relative to the torso (``_arm_velocities``). While the torso is not seen, no velocity
+        (the stale growth covers it)."""
         velocity = self.torso_velocity_at(t_s, until_s)
         if velocity is None or not np.all(np.isfinite(velocity)):
             return caps
-        v = np.zeros((len(caps.names), 3))
-        v[:, :2] = velocity
-        return caps.with_velocities(v, v.copy())
+        v0 = np.zeros((len(caps.names), 3))
+        v0[:, :2] = velocity
+        v1 = v0.copy()
+        if relative is not None:
+            v0 += relative[0]
+            v1 += relative[1]
+        return caps.with_velocities(v0, v1)
