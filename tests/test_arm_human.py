@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from cobotsafety.arm.controller import YIELD_DWELL_S, ArmController, HumanWatchdog
+from cobotsafety.arm.filter_settings import FilterSettings
 from cobotsafety.arm.limitations import BoxZone, HumanLimitation
 from cobotsafety.arm.ssm import SsmParams
 from cobotsafety.human.body import HumanCapsules
@@ -21,6 +22,9 @@ from oracles.geometry import capsule_pair
 from oracles.kinematics import Kinematics
 
 DT = 0.004
+#: The rows alone, without the evasion the anticipative command gets next to a person
+#: (``FilterSettings.evasion_gain``): the tests of how each row bounds the motion.
+SLIDING = FilterSettings(evasion_gain=0.0)
 
 
 def torso(p, radius: float = 0.12, v=None, height=(-0.3, 0.4), ages_s=None) -> HumanCapsules:
@@ -67,7 +71,7 @@ def test_the_report_gives_the_human_distance_and_clearing_removes_it():
 
 def test_anticipative_slides_past_the_human_and_off_runs_into_them():
     v = np.array([0.08, 0.2, 0.0])  # mostly at the human, a little along them
-    controller = ArmController("panda")
+    controller = ArmController("panda", settings=SLIDING)
     critical = controller.human.critical_m
     human = beside(controller)
     start = controller.p_base_ee_m
@@ -76,7 +80,7 @@ def test_anticipative_slides_past_the_human_and_off_runs_into_them():
     assert any(name.startswith("human") for r in reports for name in r.binding)
     assert controller.p_base_ee_m[0] - start[0] > 0.05  # it kept moving along the human: sliding
 
-    blind = ArmController("panda")
+    blind = ArmController("panda", settings=SLIDING)
     distances_off, _ = drive(blind, human, v, "off", 500)
     assert distances_off.min() < critical - 0.05  # the same command without the filter closes in
 
@@ -123,7 +127,7 @@ def test_the_human_velocity_enters_as_the_rate_of_the_distance():
     it (the same position, a velocity), the arm gives way at once; walking away, it stays."""
     moved = {}
     for name, v in (("still", None), ("toward", (0.0, -0.5, 0.0)), ("away", (0.0, 0.5, 0.0))):
-        controller = ArmController("panda")
+        controller = ArmController("panda", settings=SLIDING)
         start = controller.p_base_ee_m
         probe = beside(controller, offset=(0.0, 0.6, 0.0))
         d = separation(controller, probe)
@@ -147,7 +151,7 @@ def test_ssm_slows_the_approach_but_not_the_retreat():
     runs = {}
     for ssm in ("off", "scaling"):
         for v in ((0.0, 0.3, 0.0), (0.0, -0.3, 0.0)):
-            controller = ArmController("panda", zones=[], ssm=ssm,
+            controller = ArmController("panda", settings=SLIDING, zones=[], ssm=ssm,
                                        human=HumanLimitation(critical_m=0.05, activation_m=2.0))
             human = beside(controller, offset=(0.0, 0.45, 0.0), radius=0.05, height=(0.0, 0.0))
             runs[ssm, v[1] > 0] = drive(controller, human, v, "anticipative", 60)
@@ -174,7 +178,7 @@ def test_the_ssm_protective_stop_keeps_the_protective_distance_at_rest():
     s_at_rest = float(protective_separation_m(0.0, SsmParams()))
     closest = {}
     for ssm in ("off", "stop"):
-        controller = ArmController("panda", zones=[], ssm=ssm, human=HumanLimitation(critical_m=0.05, activation_m=2.0))
+        controller = ArmController("panda", settings=SLIDING, zones=[], ssm=ssm, human=HumanLimitation(critical_m=0.05, activation_m=2.0))
         human = beside(controller, offset=(0.0, 0.6, 0.0), radius=0.05, height=(0.0, 0.0))
         distances, reports = drive(controller, human, [0.0, 0.3, 0.0], "anticipative", 400)
         closest[ssm] = distances.min()
@@ -187,7 +191,7 @@ def test_the_ssm_protective_stop_keeps_the_protective_distance_at_rest():
 def test_a_larger_stale_human_never_lets_the_robot_approach_faster():
     speeds = []
     for radius in (0.05, 0.15, 0.3):  # the degraded model grows while the sensors are silent
-        controller = ArmController("panda")
+        controller = ArmController("panda", settings=SLIDING)
         human = beside(controller, offset=(0.0, 0.7, 0.0), radius=radius)
         _, reports = drive(controller, human, [0.0, 0.4, 0.0], "anticipative", 80)
         speeds.append([r.v_executed_m_s[1] for r in reports])
@@ -201,7 +205,7 @@ def old_human_run(steps: int):
     the arm commanded at 0.1 m/s. Per step: the model's age when read, the report, the oracle's
     separation to the human as given."""
     watchdog = HumanWatchdog(grow_after_s=0.05, stop_after_s=0.5, growth_speed_m_s=2.0)
-    controller = ArmController("panda", watchdog=watchdog, zones=[])
+    controller = ArmController("panda", settings=SLIDING, watchdog=watchdog, zones=[])
     human = beside(controller, offset=(0.0, 1.5, 0.0), ages_s={"laser": 0.01})
     controller.set_human(human)
     log = []
@@ -461,3 +465,23 @@ def test_the_arm_returns_to_the_held_pose_when_the_walker_has_gone(walk):
 
     _, controller, home = walk
     assert np.linalg.norm(controller.p_base_ee_m - home) <= HOLD_DEADBAND_M + 1e-4
+
+
+def test_next_to_a_person_the_anticipative_arm_moves_out_of_the_way():
+    """A person standing within the field's reach of the arm (default ``field_*``: 0.25 + 0.35 m)
+    while the user commands nothing: the anticipative command gets paper 2's repulsion at the
+    arm's closest point (``evasion_gain``), so the arm moves away, at most at the field's speed,
+    and never closer than the critical distance; with the rows alone (``evasion_gain`` 0) it
+    holds still, which is what the first assertion catches."""
+    runs = {}
+    for name, settings in (("evading", FilterSettings()), ("sliding", SLIDING)):
+        controller = ArmController("panda", settings=settings, zones=[])
+        human = beside(controller, offset=(0.0, 0.7, 0.0))
+        runs[name] = drive(controller, human, np.zeros(3), "anticipative", 250)
+    evading, _ = runs["evading"]
+    sliding, _ = runs["sliding"]
+    assert evading[-1] > evading[0] + 0.02  # m in 1 s (the default field pushes at ~0.1 m/s here)
+    assert np.all(np.diff(evading) > -1e-6)  # never toward the person
+    assert np.all(np.diff(evading) < FilterSettings().field_max_repulsion_m_s * DT + 1e-6)
+    assert np.ptp(sliding) < 0.005  # the rows alone: standing still (centering only)
+    assert evading.min() > HumanLimitation().critical_m

@@ -49,6 +49,11 @@ class FilterSettings:
     * ``field_*``: paper 2's potential field (the ``reactive`` strategy): repulsion
       ``k_rep (d_o / (d - d_cr) - 1)`` within ``d_cr + d_o`` of the human (eq. 18), at most
       ``field_max_repulsion_m_s``; ``field_damping`` is eqs. 16 and 20's lambda.
+    * ``evasion_gain`` 1.0: next to a person, the anticipative filter's command is the user's
+      plus this times paper 2's repulsion (the ``field_*`` settings) at the arm's closest point,
+      so the arm moves out of a person's way as paper 2's field does while the filter keeps
+      every limitation (the human's critical distance among them) as rows; 0: the user's command
+      alone (pure sliding, the arm only yields).
     * ``ssm``: ISO/TS 15066 speed and separation monitoring's terms (``cobotsafety.arm.ssm``):
       the human's speed (ISO 13855's 1.6 m/s walking), the reaction time, the robot's braking,
       the intrusion and the position uncertainties of human and robot.
@@ -72,6 +77,7 @@ class FilterSettings:
     field_k_rep_m_s: float = 0.08
     field_max_repulsion_m_s: float = 1.0
     field_damping: float = 1e-3
+    evasion_gain: float = 1.0
     ssm: SsmParams = field(default_factory=SsmParams)
 
     def __post_init__(self):

@@ -26,7 +26,8 @@ The step:
    limitation (``braking.braking_speed``), the human's own approach added, SSM's speed limit;
    the joints' speed limits; the motion box of each joint (acceleration and jerk limits from the
    previous step) and of the end-effector;
-3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``); ``stop`` commands zero as
+3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``), next to a person ``q0``
+   plus ``evasion_gain`` times paper 2's repulsion (``field_repulsion``); ``stop`` commands zero as
    soon as ``q0`` would break a bound (the arm brakes within its limits); ``reactive`` is paper
    2's potential field at the human's closest point, projected onto the other limitations (it
    slides off them as the anticipative filter does); ``off`` keeps only the robot's own speed,
@@ -180,23 +181,18 @@ def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover 
 
 
 @numba.njit(cache=True)
-def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op, axes, idx_v, support,
-                   critical_m, influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
-    """Paper 2's potential field (eqs. 16-21, errata 5-6): ``(qdot (nv,), stopped)``.
-
-    ``qdot = DLS(J, v_att) + DLS(J_cp, f s)`` with ``f = k_rep (d_o / (d - d_cr) - 1)``
-    (eq. 18) within ``d_cr + d_o`` of the human, ``s`` the unit vector from the human's closest
-    point to the robot's, ``J_cp`` the Jacobian of the robot's closest point; at ``d <= d_cr``
-    the collision is unavoidable: stop."""
-    nv = J.shape[1]
-    if np.isfinite(d_min) and d_min <= critical_m:
-        return np.zeros(nv), True
-    qdot = damped_least_squares(J, v_att, damping)
-    if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m:
-        return qdot, False
+def field_repulsion(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m,
+                    influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
+    """Paper 2's repulsion (eqs. 18-21, errata 5-6) as a joint velocity (nv,): ``DLS(J_cp, f s)``
+    with ``f = k_rep (d_o / (d - d_cr) - 1)`` (at most ``max_repulsion_m_s``) within
+    ``d_cr + d_o`` of the human, ``s`` the unit vector from the human's closest point to the
+    robot's, ``J_cp`` the Jacobian of the robot's closest point; zero outside (or without a
+    human). The caller handles ``d <= d_cr``."""
+    if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m or d_min <= critical_m:
+        return np.zeros(nv)
     f = min(k_rep_m_s * (influence_m / (d_min - critical_m) - 1.0), max_repulsion_m_s)
     if f <= 0.0:
-        return qdot, False
+        return np.zeros(nv)
     gap = p_robot - p_human
     s = gap / max(np.sqrt(np.sum(gap * gap)), 1e-9)
     J_cp = np.empty((3, nv))
@@ -205,7 +201,22 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
         e[:] = 0.0
         e[r] = 1.0
         point_jacobian_row(e, p_robot, cap_joint[capsule], oR, op, axes, idx_v, support, J_cp[r])
-    return qdot + damped_least_squares(J_cp, f * s, damping), False
+    return damped_least_squares(J_cp, f * s, damping)
+
+
+@numba.njit(cache=True)
+def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op, axes, idx_v, support,
+                   critical_m, influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
+    """Paper 2's potential field (eqs. 16-21, errata 5-6): ``(qdot (nv,), stopped)``.
+
+    ``qdot = DLS(J, v_att) + field_repulsion``; at ``d <= d_cr`` the collision is unavoidable:
+    stop."""
+    nv = J.shape[1]
+    if np.isfinite(d_min) and d_min <= critical_m:
+        return np.zeros(nv), True
+    return damped_least_squares(J, v_att, damping) + field_repulsion(
+        d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m, influence_m,
+        k_rep_m_s, max_repulsion_m_s, damping), False
 
 
 @numba.njit(cache=True)
@@ -329,10 +340,11 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
         robot_i, robot_f)
     (max_speed, activation_m, buffer_m, buffer_rad, recovery_gain, width_m, width_rad, brake_share, null_weight,
      w_threshold, damping_max, orientation_gain, centering_gain, field_critical, field_influence, field_k_rep,
-     field_max_rep, field_damping) = settings_f[0], settings_f[1], settings_f[2], settings_f[3], settings_f[4], \
-        settings_f[5], settings_f[6], settings_f[7], settings_f[8], settings_f[9], settings_f[10], settings_f[11], \
-        settings_f[12], settings_f[13], settings_f[14], settings_f[15], settings_f[16], settings_f[17]
-    ssm_params = settings_f[18:24]
+     field_max_rep, field_damping, evasion_gain) = settings_f[0], settings_f[1], settings_f[2], settings_f[3], \
+        settings_f[4], settings_f[5], settings_f[6], settings_f[7], settings_f[8], settings_f[9], settings_f[10], \
+        settings_f[11], settings_f[12], settings_f[13], settings_f[14], settings_f[15], settings_f[16], settings_f[17], \
+        settings_f[18]
+    ssm_params = settings_f[19:25]
     q = state_f[0:nq].copy()
     qdot_prev = state_f[nq:nq + nv].copy()
     qddot_prev = state_f[nq + nv:nq + 2 * nv].copy()
@@ -411,6 +423,15 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     B[:, 3:] = Z / null_weight
     stopped = False
     protective = False
+    if strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0:
+        # Next to a person the command is the user's plus paper 2's repulsion at the arm's
+        # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the
+        # field does, and the rows below still keep every limitation.
+        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
+        repulsion = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
+                                    field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
+        for j in range(nv):
+            q0[j] += evasion_gain * repulsion[j]
     if strategy == REACTIVE:
         d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
         q0, stopped = field_velocity(J, v, d_min, capsule, pr, ph, cap_joint, oR, op, axes, idx_v, support,
