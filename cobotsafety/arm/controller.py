@@ -115,9 +115,23 @@ def default_zones(p_world_ee_m: np.ndarray) -> list:
 REACH_SHARE = 0.9
 
 
+#: ``farthest_reach_m``'s results by robot, centre and sampling: the same for every controller of
+#: a robot (a campaign builds several per person), so it is computed once per process.
+_FARTHEST_REACH_M: dict = {}
+
+
 def farthest_reach_m(model: RobotModel, centre: np.ndarray, samples: int = 4000, seed: int = 0) -> float:
     """The farthest the end-effector gets from ``centre`` [m] over ``samples`` configurations
-    drawn uniformly within the joint limits (a generator of our own, seeded)."""
+    drawn uniformly within the joint limits (a generator of our own, seeded); remembered per
+    robot, centre and sampling."""
+    key = (model.name, model.ee_frame_id, np.asarray(centre, dtype=float).tobytes(), samples, seed)
+    found = _FARTHEST_REACH_M.get(key)
+    if found is None:
+        found = _FARTHEST_REACH_M[key] = _sample_farthest_reach_m(model, centre, samples, seed)
+    return found
+
+
+def _sample_farthest_reach_m(model: RobotModel, centre: np.ndarray, samples: int, seed: int) -> float:
     import pinocchio as pin  # noqa: PLC0415
 
     rng = np.random.default_rng(seed)
