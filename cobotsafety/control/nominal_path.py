@@ -8,6 +8,7 @@ pose, return home. ``hold(p)``: experiment 2, the robot keeps its home until ``u
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,7 @@ class NominalPath:
         segments = np.diff(self.waypoints_m, axis=0)
         self._lengths = np.linalg.norm(segments, axis=1)
         self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
+        self._cumulative_list = self._cumulative.tolist()  # searched once per step (bisect: no array call)
         self._dwell_left = {i: float(d) for i, d in self.dwell_s.items()}
 
     @property
@@ -46,9 +48,9 @@ class NominalPath:
         return self.s_m >= self.length_m and self.t_s >= self.start_after_s
 
     def point(self, s_m: float) -> np.ndarray:
-        s_m = min(max(s_m, 0.0), self.length_m)
-        i = min(int(np.searchsorted(self._cumulative, s_m, side="right")) - 1, len(self._lengths) - 1)
-        t = (s_m - self._cumulative[i]) / max(self._lengths[i], 1e-12)
+        s_m = min(max(s_m, 0.0), self._cumulative_list[-1])
+        i = min(bisect_right(self._cumulative_list, s_m) - 1, len(self._lengths) - 1)
+        t = (s_m - self._cumulative_list[i]) / max(float(self._lengths[i]), 1e-12)
         return self.waypoints_m[i] + t * (self.waypoints_m[i + 1] - self.waypoints_m[i])
 
     def advance(self, p_ee_m: np.ndarray, dt_s: float) -> np.ndarray:
