@@ -271,8 +271,10 @@ class ArmController:
         self._human_given_s = self.clock_s if human is not None else -math.inf
         human = human if human is not None else HumanCapsules.absent()
         self._human = human
-        self._human_age_s = max([0.0, *(a for a in human.ages_s.values() if math.isfinite(a))]) if human.present else 0.0
-        if human.present:
+        present = human.present
+        ages = human.ages_s
+        self._human_age_s = max([0.0, *(a for a in ages.values() if math.isfinite(a))]) if present and ages else 0.0
+        if present:
             v0 = human.v0_b_m_s if human.v0_b_m_s is not None else np.zeros_like(human.p0_b_m)
             v1 = human.v1_b_m_s if human.v1_b_m_s is not None else np.zeros_like(human.p1_b_m)
             self._human_f = human_buffer(human.p0_b_m, human.p1_b_m, human.radius_m, v0, v1)

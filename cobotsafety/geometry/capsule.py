@@ -65,14 +65,15 @@ def _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f
     return s, (b * s + f) / e
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover - compiled
     """One pair: end points (3,), radii in; the distance [m] out, the axes' closest points into
     ``point_a``, ``point_b`` (3,). The one implementation ``capsule_distance`` and the arm's
     compiled step both run."""
-    d1x, d1y, d1z = a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]
-    d2x, d2y, d2z = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
-    rx, ry, rz = a0[0] - b0[0], a0[1] - b0[1], a0[2] - b0[2]
+    a0x, a0y, a0z, b0x, b0y, b0z = a0[0], a0[1], a0[2], b0[0], b0[1], b0[2]
+    d1x, d1y, d1z = a1[0] - a0x, a1[1] - a0y, a1[2] - a0z
+    d2x, d2y, d2z = b1[0] - b0x, b1[1] - b0y, b1[2] - b0z
+    rx, ry, rz = a0x - b0x, a0y - b0y, a0z - b0z
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z
     b = d1x * d2x + d1y * d2y + d1z * d2z
@@ -114,8 +115,8 @@ def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover 
                 g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_end, end)
                 if g < best:
                     best, s, t = g, s_end, end
-    point_a[0], point_a[1], point_a[2] = a0[0] + s * d1x, a0[1] + s * d1y, a0[2] + s * d1z
-    point_b[0], point_b[1], point_b[2] = b0[0] + t * d2x, b0[1] + t * d2y, b0[2] + t * d2z
+    point_a[0], point_a[1], point_a[2] = a0x + s * d1x, a0y + s * d1y, a0z + s * d1z
+    point_b[0], point_b[1], point_b[2] = b0x + t * d2x, b0y + t * d2y, b0z + t * d2z
     gx, gy, gz = point_a[0] - point_b[0], point_a[1] - point_b[1], point_a[2] - point_b[2]
     return np.sqrt(gx * gx + gy * gy + gz * gz) - ra - rb
 

@@ -54,8 +54,7 @@ def row_name(limitation: HumanLimitation, robot, a: int, b: int, human_names: tu
 def human_buffer(p0_m, p1_m, radius_m, v0_m_s, v1_m_s) -> np.ndarray:
     """The flat buffer (13 h,) the compiled step reads: end points (h, 3) [m], radii (h,) [m]
     and end-point velocities (h, 3) [m/s], in that order."""
-    return np.ascontiguousarray(np.concatenate([np.asarray(a, dtype=float).ravel()
-                                                for a in (p0_m, p1_m, radius_m, v0_m_s, v1_m_s)]))
+    return np.concatenate((p0_m, p1_m, radius_m, v0_m_s, v1_m_s), axis=None, dtype=float)
 
 
 @numba.njit(cache=True)

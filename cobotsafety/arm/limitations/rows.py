@@ -35,7 +35,7 @@ def kind_count(kind, real, skip, n_caps, n_limited, n_human):  # pragma: no cove
     return -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def kind_rows(kind, real, skip, con, kin, hum, activation_m, out, m, before):  # pragma: no cover - compiled
     """Append limitation ``con``'s active rows from row ``m`` (its distances into ``before``);
     the new row count."""
@@ -56,7 +56,7 @@ def kind_rows(kind, real, skip, con, kin, hum, activation_m, out, m, before):  #
     return -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def kind_distances(kind, real, skip, kin, hum, out):  # pragma: no cover - compiled
     """The limitation's distances (the safety net's check) into ``out``."""
     if kind == joint_range.KIND:
