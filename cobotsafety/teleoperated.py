@@ -61,6 +61,8 @@ class StepReport:
     human_status: str = ""
     """What the controller knows of the human: "" (fresh or none), or why it is being careful
     ("human model 0.12 s old: grown by 0.14 m", "human model 0.6 s old: stopped")."""
+    evading: bool = False
+    """The command carried a repulsion from a person this step (the arm moving out of their way)."""
 
 
 @runtime_checkable

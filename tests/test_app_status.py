@@ -13,10 +13,10 @@ PANDA = RobotVocabulary(tuple(f"panda_joint{k}" for k in range(1, 8)), "panda_jo
 ZERO = (0.0, 0.0, 0.0)
 
 
-def report(binding=(), v_desired=ZERO, v_executed=ZERO, stopped=False, reason="", contradictions=0):
+def report(binding=(), v_desired=ZERO, v_executed=ZERO, stopped=False, reason="", contradictions=0, evading=False):
     return SimpleNamespace(binding=binding, v_desired_m_s=np.array(v_desired), v_commanded_m_s=np.array(v_executed),
                            v_executed_m_s=np.array(v_executed), stopped=stopped, reason=reason,
-                           contradictions=contradictions)
+                           contradictions=contradictions, evading=evading)
 
 
 def facts(rep, **kw):
@@ -33,6 +33,10 @@ def facts(rep, **kw):
      "Giving way: the person's right forearm near the elbow."),
     (report(("human forearm_right (panda_joint4)",)), {"human_present": True},  # held away, not moving
      "Giving way: the person's right forearm near the elbow."),
+    (report(v_executed=(0.0, -0.1, 0.0), evading=True), {"human_present": True, "distance_m": 0.45},
+     "Moving out of the person's way, then back to your drag."),
+    (report(("human torso (panda_joint4)",), evading=True), {"human_present": True},  # a row binds too: named
+     "Giving way: the person's torso near the elbow."),
     (report(("panda_joint4 upper", "velocity 9", "table (panda_joint7)"), v_desired=(0.1, 0.0, 0.0),
             v_executed=(0.0, 0.05, 0.0)), {},
      "Sliding along joint 4 at its upper end; joint 3 at its speed limit (+1 more)."),

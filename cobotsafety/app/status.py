@@ -87,6 +87,8 @@ def situation(facts: StatusFacts) -> str:
         return "Limits conflict: the arm yields to each as little as it can."
     if human:
         return f"Giving way: {human[0].words}."
+    if report is not None and report.evading:
+        return "Moving out of the person's way, then back to your drag."
     if others and driven and not moving:
         return f"Held at {_listed(others)}: as close to your drag as it allows."
     if others and driven:

@@ -63,10 +63,11 @@ STRATEGIES = ("anticipative", "stop", "reactive", "off")
 #: stop; SSM's protective stop.
 FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE = 1, 2, 4, 8
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
-#: row, motion limited, smoothness given up, protective stop; then the binding rows' codes,
-#: then the motion-limited rows' codes.
+#: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
+#: anticipative command carried the repulsion from a person); then the binding rows' codes, then
+#: the motion-limited rows' codes.
 (I_STATUS, I_LEVEL, I_STOPPED, I_BINDING, I_RELAXED, I_WORST, I_MOTION_LIMITED, I_SMOOTHNESS, I_PROTECTIVE,
- I_MOTION_COUNT) = range(10)
+ I_MOTION_COUNT, I_EVADING) = range(11)
 OUT_I_HEADER = 16
 STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: Row codes: ``(owner + 4) << 20 | a << 10 | b``; owner >= 0 a limitation (its index), else
@@ -423,6 +424,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     B[:, 3:] = Z / null_weight
     stopped = False
     protective = False
+    evading = False
     if strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0:
         # Next to a person the command is the user's plus paper 2's repulsion at the arm's
         # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the
@@ -432,6 +434,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
         for j in range(nv):
             q0[j] += evasion_gain * repulsion[j]
+            evading = evading or repulsion[j] != 0.0
     if strategy == REACTIVE:
         d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
         q0, stopped = field_velocity(J, v, d_min, capsule, pr, ph, cap_joint, oR, op, axes, idx_v, support,
@@ -659,6 +662,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     out_i[I_MOTION_COUNT] = n_motion
     out_i[I_SMOOTHNESS] = int((level >= 1 and motion_violation > tolerance) or net_scale < 1.0)
     out_i[I_PROTECTIVE] = int(protective)
+    out_i[I_EVADING] = int(evading)
     acceleration_ratio = 0.0
     for j in range(nv):
         acceleration_ratio = max(acceleration_ratio, abs(qdot_exec[j] - qdot_prev[j]) / dt_s / acc[j])

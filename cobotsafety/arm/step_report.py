@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER
+from cobotsafety.arm.step_kernel import I_BINDING, I_EVADING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER
 
 
 class ArmStepReport:
@@ -26,6 +26,12 @@ class ArmStepReport:
     def protective_stop(self) -> bool:
         """ISO/TS 15066's protective stop held (braked) the arm this step."""
         return bool(self._out_i[I_PROTECTIVE])
+
+    @property
+    def evading(self) -> bool:
+        """The anticipative command carried paper 2's repulsion from a person this step
+        (``FilterSettings.evasion_gain``): the arm was moving out of their way."""
+        return bool(self._out_i[I_EVADING])
 
     def __init__(self, out_f, out_i, offsets, name, v_desired_m_s, stopped, reason, contradictions, smoothness,
                  smoothness_steps, human_status, p_before):
