@@ -20,6 +20,10 @@ from cobotsafety.arm.robots import DEFAULT_ROBOT, RobotSpec, load_robot
 from cobotsafety.errors import UnknownRobotError
 
 
+#: ``RobotModel.load``'s models by (robot, capsule table).
+_LOADED: dict = {}
+
+
 @dataclass(frozen=True, eq=False)
 class RobotModel:
     """A robot as the controller uses it. Arrays are read-only."""
@@ -61,9 +65,19 @@ class RobotModel:
 
     @classmethod
     def load(cls, name: str = DEFAULT_ROBOT, capsules: str = "fitted") -> "RobotModel":
-        """Load robot ``name`` with its ``capsules`` table ("fitted" or "paper"). Raises
+        """Load robot ``name`` with its ``capsules`` table ("fitted" or "paper"): once per
+        process, the same object afterwards (it never changes; parsing the panda's URDF with its
+        meshes takes ~0.8 s, and a campaign builds several controllers per person). Raises
         ``UnknownRobotError`` (unknown robot, capsule table or joint type) and
-        ``MotionLimitsError`` (a missing or invalid motion limit)."""
+        ``MotionLimitsError`` (a missing or invalid motion limit); a failure is not remembered."""
+        key = (name, capsules)
+        loaded = _LOADED.get(key)
+        if loaded is None:
+            loaded = _LOADED[key] = cls._build(name, capsules)
+        return loaded
+
+    @classmethod
+    def _build(cls, name: str, capsules: str) -> "RobotModel":
         model, collision, spec = load_robot(name)
         for j in range(1, model.njoints):
             kind = model.joints[j].shortname()
