@@ -148,7 +148,7 @@ class HumanTracker:
             distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
             if could_have_left(distance, torso_age, self.max_range_m, self.policy):
                 return HumanCapsules.absent(t_s, "nobody in range")
-        caps, relative = None, None
+        caps, fresh_imus = None, None
         if not self.imus:
             caps = conservative_capsules(t_s, xy, torso_age, self.body, policy=self.policy)
         else:
@@ -160,7 +160,7 @@ class HumanTracker:
                 caps = fresh_five_capsules(t_s, xy, torso_age, q0, q1, frac, self._r_b_ref_matrices,
                                            self._body_vector, ages, self.policy)
                 if caps is not None:
-                    relative = self._arm_velocities(caps, streams, xy, t_s, until_s)
+                    fresh_imus = streams
             if caps is None:  # the readable path: a silent IMU -> 1 capsule
                 if all(np.isfinite(a) for a in ages.values()):
                     r_b_imu = self._r_b_ref_all * rotations_at(streams, t_s, until_s)  # eq. 6, batched
@@ -172,7 +172,7 @@ class HumanTracker:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)
         elif caps.present and torso_age <= self.policy.laser_stale_after_s:
-            caps = self._with_velocities(caps, t_s, until_s, relative)
+            caps = self._with_velocities(caps, t_s, until_s, fresh_imus, xy)
         return caps
 
     def _arm_velocities(self, caps: HumanCapsules, streams, xy: np.ndarray, t_s: float,
@@ -190,18 +190,19 @@ class HumanTracker:
         return ((caps.p0_b_m - before.p0_b_m) / ARM_VELOCITY_WINDOW_S,
                 (caps.p1_b_m - before.p1_b_m) / ARM_VELOCITY_WINDOW_S)
 
-    def _with_velocities(self, caps: HumanCapsules, t_s: float, until_s: float | None,
-                         relative: tuple[np.ndarray, np.ndarray] | None) -> HumanCapsules:
+    def _with_velocities(self, caps: HumanCapsules, t_s: float, until_s: float | None, fresh_imus,
+                         xy: np.ndarray) -> HumanCapsules:
         """The capsules' end-point velocities: the tracked torso's (the person tracker's Kalman
-        velocity) on every end point, plus, with five fresh IMUs, each end point's own motion
-        relative to the torso (``_arm_velocities``). While the torso is not seen, no velocity
-        (the stale growth covers it)."""
+        velocity) on every end point, plus, with five fresh IMUs (``fresh_imus``: their streams,
+        else None), each end point's own motion relative to the torso (``_arm_velocities``).
+        While the torso is not seen, no velocity (the stale growth covers it)."""
         velocity = self.torso_velocity_at(t_s, until_s)
         if velocity is None or not np.all(np.isfinite(velocity)):
             return caps
         v0 = np.zeros((len(caps.names), 3))
         v0[:, :2] = velocity
         v1 = v0.copy()
+        relative = None if fresh_imus is None else self._arm_velocities(caps, fresh_imus, xy, t_s, until_s)
         if relative is not None:
             v0 += relative[0]
             v1 += relative[1]
