@@ -425,18 +425,19 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     stopped = False
     protective = False
     evading = False
-    if strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0:
+    evades = strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0
+    if evades or strategy == REACTIVE:
+        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
+    if evades:
         # Next to a person the command is the user's plus paper 2's repulsion at the arm's
         # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the
         # field does, and the rows below still keep every limitation.
-        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
         repulsion = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
         for j in range(nv):
             q0[j] += evasion_gain * repulsion[j]
             evading = evading or repulsion[j] != 0.0
     if strategy == REACTIVE:
-        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
         q0, stopped = field_velocity(J, v, d_min, capsule, pr, ph, cap_joint, oR, op, axes, idx_v, support,
                                      field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
         B = np.eye(nv)
