@@ -3,7 +3,8 @@
     python scripts/screenshots.py [--out docs/screenshots] [--chromium /usr/bin/chromium]
 
 Writes ``planar.png`` (paper 1's arm sliding round joint 2's limit circle B, highlighted),
-``panda_human.png`` (the panda giving way to paper 2's co-worker, the replay playing),
+``panda_human.png`` (the panda giving way to, or moving out of the way of, paper 2's co-worker,
+the replay playing),
 ``panda_limit.png`` (the panda's elbow at its joint limit: the arc at the joint) and
 ``trial.png`` (a participant's view of a divided-attention trial). viser's "Software WebGL
 rendering detected" notification is closed before each shot. Software WebGL is slow: each page
@@ -13,6 +14,7 @@ gets time to draw.
 from __future__ import annotations
 
 import argparse
+import re
 import tempfile
 import time
 from pathlib import Path
@@ -87,7 +89,7 @@ def panda_human(context, out: Path) -> None:
         app.panel.speed.value = 0.2  # slowed, still playing: software WebGL takes seconds to take a screenshot
         app.replay.speed = 0.2
         app.replay.seek(4.4)  # the co-worker walks in and reaches for the pick pose from about 4 s
-        page.get_by_text("Giving way").first.wait_for(timeout=120_000)
+        page.get_by_text(re.compile(r"Giving way|Moving out of the person's way")).first.wait_for(timeout=120_000)
         time.sleep(0.5)
         _shoot(page, out / "panda_human.png")  # playing
         page.close()

@@ -34,7 +34,7 @@ def facts(rep, **kw):
     (report(("human forearm_right (panda_joint4)",)), {"human_present": True},  # held away, not moving
      "Giving way: the person's right forearm near the elbow."),
     (report(v_executed=(0.0, -0.1, 0.0), evading=True), {"human_present": True, "distance_m": 0.45},
-     "Moving out of the person's way, then back to your drag."),
+     "Moving out of the person's way."),
     (report(("human torso (panda_joint4)",), evading=True), {"human_present": True},  # a row binds too: named
      "Giving way: the person's torso near the elbow."),
     (report(("panda_joint4 upper", "velocity 9", "table (panda_joint7)"), v_desired=(0.1, 0.0, 0.0),

@@ -88,7 +88,7 @@ def situation(facts: StatusFacts) -> str:
     if human:
         return f"Giving way: {human[0].words}."
     if report is not None and report.evading:
-        return "Moving out of the person's way, then back to your drag."
+        return "Moving out of the person's way."
     if others and driven and not moving:
         return f"Held at {_listed(others)}: as close to your drag as it allows."
     if others and driven:
