@@ -286,7 +286,16 @@ def test_zones_listed_replay_hidden_and_only_the_binding_end_lit(browser, app):
     reset(page, app, "anticipative")
     assert page.get_by_text("Replay", exact=True).count() == 0 or not page.get_by_text("Replay", exact=True).is_visible()
     page.get_by_text("Protection zones").click()
-    page.get_by_role("combobox", name="Zone").click()
+    zone = page.get_by_role("combobox", name="Zone")
+    zone.wait_for()
+    for attempt in range(5):  # the folder's opening animation can close a dropdown opened during it
+        zone.click()
+        try:
+            page.get_by_role("option", name="F circle zone").wait_for(timeout=10_000)
+            break
+        except Exception:  # noqa: BLE001 - playwright's TimeoutError: open it again
+            if attempt == 4:
+                raise
     page.get_by_role("option", name="F circle zone").wait_for()
     page.get_by_role("option", name="F rectangle zone").wait_for()
     page.keyboard.press("Escape")
