@@ -91,10 +91,50 @@ def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
     held = np.tile(q_home, (len(t), 1))
     found = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1)
     assert found.exists and found.best_min_distance_m >= 0.1
+    _assert_a_real_arm_could_follow(found, q_home, truth, critical_m=0.1)
     # A human standing on the robot's shoulder leaves no escape.
     shoulder = state.capsule_p0[1] + [0.0, 0.0, 0.1]
     trapped = _truth(_ApproachingHuman(shoulder, 0.2, 0.0, 0.5))
     assert not escape_exists("iiwa", held, t, 1.5, trapped, 0.0, critical_m=0.1).exists
+
+
+def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
+    """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
+    velocity and acceleration limits and keeps the true separation (at most 1 cm below the
+    critical distance between the search's samples, which alone it guarantees)."""
+    from cobotsafety.tools.campaign.escape import KNOTS, _Kinematics
+
+    kin = _Kinematics("iiwa")
+    t0, t1 = found.window_s
+    knots_t = t0 + np.arange(KNOTS + 1) * (t1 - t0) / KNOTS
+    knots_v = np.vstack([np.zeros(len(q_start)), found.witness_rad_s])
+    assert np.all(np.abs(np.diff(knots_v, axis=0)) / np.diff(knots_t)[:, None] <= kin.a_max * (1 + 1e-6))
+    assert np.all(np.abs(knots_v) <= kin.v_max * (1 + 1e-9))
+    fine = np.arange(t0, t1, 0.001)
+    v = np.stack([np.interp(fine, knots_t, knots_v[:, j]) for j in range(len(q_start))], axis=1)
+    q = q_start + np.cumsum(v * 0.001, axis=0)
+    worst = min(truth.distance_m(*kin.capsules(qk), tk) for qk, tk in zip(q[::10], fine[::10]))
+    assert worst >= critical_m - 0.01
+
+
+def test_an_escape_needs_acceleration_the_arm_has():
+    """A person closing 0.4 m on the resting iiwa's hand at 1 m/s, stopping 0.1 m from its
+    axis: at once at full joint speed the hand could get clear (the search finds it with the
+    acceleration limits lifted), but the iiwa needs 0.5 s to reach its joint speeds (its
+    acceleration limits), and ramping up it covers well under half as far in those 0.4 s: no
+    escape a real arm could take."""
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, 0.5, 0.1, 1.0))
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    limited = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
+    kin.a_max = kin.a_max * 1e3
+    instant = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
+    assert instant.exists and not limited.exists
+    assert limited.best_min_distance_m < 0.08 <= instant.best_min_distance_m
 
 
 @pytest.fixture(scope="module")

@@ -1,19 +1,24 @@
 """Did an escape exist? An offline joint-space optimisation over the same (true) human.
 
 For a breach (the true separation fell below the critical distance at ``t_closest``), take the
-robot's logged joint state at ``t0 = t_closest - LOOKBACK_S`` and ask scipy (SLSQP) for a joint
-trajectory over ``[t0, t_closest + LOOKAHEAD_S]`` that keeps the true separation above the
-critical distance, knowing the human's whole future (the ground truth): joint velocities
-piecewise constant over ``KNOTS`` segments, each within the robot's velocity limits (``MotionLimits``), positions
-within its joint limits, maximising the smallest separation ``s`` at ``SAMPLES`` times
-(epigraph form: maximise ``s`` subject to ``d_j(qdot) >= s``). The constraints' gradients are
-exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
-the robot's, ``J_c`` the robot point's Jacobian), times the time each knot acts before sample
-``j``. An escape existed when the optimum (or a candidate tried first: hold still, reverse the
-logged motion, or the steepest retreat at full or half speed; SLSQP starts from the best) reaches
-the critical distance. The search is local: an escape found is certain (a witness trajectory),
-"none" is the best SLSQP found, so ``breaches_with_escape`` is a lower bound. The window is a stated choice: the controller
-could have started earlier, so "no escape in the window" does not prove none existed before it.
+robot's logged joint state (position and velocity) at ``t0 = t_closest - LOOKBACK_S`` and ask
+scipy (SLSQP) for a joint trajectory over ``[t0, t_closest + LOOKAHEAD_S]`` that keeps the true
+separation above the critical distance, knowing the human's whole future (the ground truth).
+The trajectory is one a real arm could follow: the joint velocity is continuous, starts at the
+logged one, and is linear between ``KNOTS`` evenly spaced knots (the decision variables), each
+knot within the robot's velocity limits and within its acceleration limits of the previous one
+(``MotionLimits``; jerk and the end-effector's own limits are not modelled), positions within
+its joint limits. It maximises the smallest separation ``s`` at ``SAMPLES`` times (epigraph
+form: maximise ``s`` subject to ``d_j(x) >= s``). The constraints' gradients are exact:
+``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to the
+robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat function up
+to sample ``j``. An escape existed when the optimum (or a candidate tried first: brake to a
+stop, reverse the logged motion, or the steepest retreat at full or half speed, each reached
+at the acceleration limits; SLSQP starts from the best) reaches the critical distance. The
+search is local: an escape found is certain (``Escape.witness_rad_s``, its knot velocities),
+"none" is the best SLSQP found, so ``breaches_with_escape`` is a lower bound. The window is a
+stated choice: the controller could have started earlier, so "no escape in the window" does not
+prove none existed before it.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from cobotsafety.geometry.capsule import capsule_distance
 
 LOOKBACK_S = 1.0
 LOOKAHEAD_S = 0.5
-KNOTS = 4
+KNOTS = 6
 SAMPLES = 16
 
 
@@ -38,10 +43,14 @@ class Escape:
     best_min_distance_m: float
     """The largest smallest true separation [m] found over the window."""
     window_s: tuple[float, float]
+    witness_rad_s: np.ndarray | None = None
+    """The best trajectory's knot velocities (KNOTS, nv) [rad/s] (None when no candidate was
+    feasible); the velocity at ``window_s[0]`` is the logged one."""
 
 
 class _Kinematics:
-    """The robot's capsules (minus the base one) at any q, and the separation's gradient."""
+    """The robot's capsules (minus the base one) at any q, the separation's gradient, and the
+    robot's joint limits."""
 
     def __init__(self, robot: str, capsules: str = "paper", skip_capsules: int = 1):
         from cobotsafety.arm.controller import ArmController
@@ -50,7 +59,9 @@ class _Kinematics:
         self.state = self.arm.state
         self.skip = skip_capsules
         model = self.state.model
-        self.v_max = np.asarray(self.arm.model.limits.velocity_rad_s, dtype=float)
+        limits = self.arm.model.limits
+        self.v_max = np.asarray(limits.velocity_rad_s, dtype=float)
+        self.a_max = np.asarray(limits.acceleration_rad_s2, dtype=float)
         self.lower, self.upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
 
     def capsules(self, q: np.ndarray):
@@ -68,11 +79,34 @@ class _Kinematics:
         return float(d[c, h]), u @ self.state.point_jacobian(self.skip + int(c), pa[c, h])
 
 
-def _weights(window_s: float) -> np.ndarray:
-    """(SAMPLES, KNOTS): how long [s] each knot's rate has acted at each sample time."""
+def _hat_integral(t: np.ndarray, centre: float, half_width: float) -> np.ndarray:
+    """The integral from 0 to ``t`` of the hat function 1 - |s - centre| / half_width (0 beyond)."""
+
+    def cumulative(x):
+        rise = np.clip(x - (centre - half_width), 0.0, half_width)
+        fall = np.clip(x - centre, 0.0, half_width)
+        return rise ** 2 / (2 * half_width) + fall - fall ** 2 / (2 * half_width)
+
+    return cumulative(np.asarray(t, dtype=float)) - cumulative(0.0)
+
+
+def _weights(window_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(w0 (SAMPLES,), W (SAMPLES, KNOTS))`` [s]: the position change at each sample time per
+    unit of the starting velocity and of each knot's velocity (velocity linear between knots)."""
     times = np.linspace(window_s / SAMPLES, window_s, SAMPLES)
-    starts = np.arange(KNOTS) * window_s / KNOTS
-    return np.clip(times[:, None] - starts[None, :], 0.0, window_s / KNOTS)
+    h = window_s / KNOTS
+    w0 = _hat_integral(times, 0.0, h)
+    W = np.stack([_hat_integral(times, (k + 1) * h, h) for k in range(KNOTS)], axis=1)
+    return w0, W
+
+
+def _reach(v_start: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Knot velocities (KNOTS, n) going from ``v_start`` to ``target`` by at most ``step`` per knot."""
+    knots, v = [], v_start.copy()
+    for _ in range(KNOTS):
+        v = v + np.clip(target - v, -step, step)
+        knots.append(v)
+    return np.array(knots)
 
 
 def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s: float, truth: TruthHuman,
@@ -84,13 +118,22 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     t0 = max(float(t_log[0]), t_closest_s - LOOKBACK_S)
     t1 = t_closest_s + LOOKAHEAD_S
     window = max(t1 - t0, 1e-3)
-    q0 = np.asarray(q_log[int(np.clip(np.searchsorted(t_log, t0), 0, len(t_log) - 1))], dtype=float)
+    i0 = int(np.clip(np.searchsorted(t_log, t0), 0, len(t_log) - 1))
+    q0 = np.asarray(q_log[i0], dtype=float)
+    if i0 + 1 < len(t_log):  # the logged velocity at t0 (within the robot's limits)
+        v0 = (np.asarray(q_log[i0 + 1], dtype=float) - q0) / max(float(t_log[i0 + 1] - t_log[i0]), 1e-9)
+    else:
+        v0 = np.zeros_like(q0)
+    v0 = np.clip(v0, -kin.v_max, kin.v_max)
     times = t0 + np.linspace(window / SAMPLES, window, SAMPLES)
     humans = [truth.capsules_at(truth_offset_s + t) for t in times]
-    n, W = len(q0), _weights(window)
+    n = len(q0)
+    w0, W = _weights(window)
+    step = kin.a_max * window / KNOTS  # the most a knot's velocity may differ from the previous one
+    start_motion = q0 + np.outer(w0, v0)
 
     def positions(x: np.ndarray) -> np.ndarray:
-        return q0 + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
+        return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
 
     cache: dict = {}
 
@@ -103,44 +146,63 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
             cache[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
         return cache[key]
 
+    # Acceleration rows: step -+ (x_k - x_{k-1}) >= 0, x_0 = v0.
+    difference = np.eye(KNOTS * n) - np.eye(KNOTS * n, k=-n)
+    previous = np.concatenate([v0, np.zeros((KNOTS - 1) * n)])
+    steps = np.tile(step, KNOTS)
+
+    def accelerations(x: np.ndarray) -> np.ndarray:
+        change = difference @ x[: KNOTS * n] - previous
+        return np.concatenate([steps - change, steps + change])
+
     def feasible(x: np.ndarray) -> bool:
         q = positions(x)
-        return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9))
+        return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
+                    and np.all(accelerations(x) >= -1e-9 * steps.max())
+                    and np.all(np.abs(x[: KNOTS * n]) <= np.tile(kin.v_max, KNOTS) + 1e-12))
 
-    # Candidates first: hold still, and the logged motion reversed (a retreat along it).
+    # Candidates first, each reached at the acceleration limits: brake to a stop, the logged
+    # motion reversed (a retreat along it), the steepest retreat at full or half speed.
     i1 = int(np.clip(np.searchsorted(t_log, min(t1, float(t_log[-1]))), 0, len(t_log) - 1))
     logged = (np.asarray(q_log[i1]) - q0) / window
-    d_still, grads_still = separations(np.zeros(KNOTS * n))
-    worst = int(np.argmin(d_still))
-    # Steepest retreat: every joint at its limit in the direction that grows the worst separation.
-    steepest = kin.v_max * np.sign(grads_still[worst])
-    best, start = -np.inf, np.zeros(KNOTS * n)
-    for rates in (np.zeros(n), np.clip(-logged, -kin.v_max, kin.v_max), steepest, 0.5 * steepest):
-        x = np.tile(rates, KNOTS)
+    braking = _reach(v0, np.zeros(n), step).ravel()
+    d_brake, grads_brake = separations(braking)
+    worst = int(np.argmin(d_brake))
+    steepest = kin.v_max * np.sign(grads_brake[worst])  # every joint growing the worst separation
+    best, start = -np.inf, None
+    for target in (np.zeros(n), np.clip(-logged, -kin.v_max, kin.v_max), steepest, 0.5 * steepest):
+        x = _reach(v0, target, step).ravel()
         if feasible(x):
             value = float(separations(x)[0].min())
             if value > best:
                 best, start = value, x
             if best >= critical_m:
-                return Escape(True, best, (t0, t1))
-    # Epigraph: maximise s subject to d_j(x) >= s, joint limits, velocity bounds.
-    dq_dx = np.kron(W, np.eye(n))  # (SAMPLES n, KNOTS n): d q_j / d knot rates
+                return Escape(True, best, (t0, t1), start.reshape(KNOTS, n))
+    if start is None:
+        start = braking
+    # Epigraph: maximise s subject to d_j(x) >= s, joint and acceleration limits, velocity bounds.
+    dq_dx = np.kron(W, np.eye(n))  # (SAMPLES n, KNOTS n): d q_j / d knot velocities
 
     def gap_jacobian(x):
         _, grads = separations(x)
         rows = np.einsum("jn,jnk->jk", grads, dq_dx.reshape(SAMPLES, n, KNOTS * n))
         return np.hstack([rows, -np.ones((SAMPLES, 1))])
 
+    acceleration_jacobian = np.hstack([np.vstack([-difference, difference]), np.zeros((2 * KNOTS * n, 1))])
     limits = [{"type": "ineq", "fun": lambda x: separations(x)[0] - x[-1], "jac": gap_jacobian},
               {"type": "ineq", "fun": lambda x: (positions(x) - kin.lower).ravel(),
                "jac": lambda x: np.hstack([dq_dx, np.zeros((SAMPLES * n, 1))])},
               {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
-               "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])}]
-    x0 = np.concatenate([start, [best]])  # from the best candidate
+               "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
+              {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian}]
+    x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
     bounds = [(-v, v) for v in np.tile(kin.v_max, KNOTS)] + [(None, None)]
     result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
                       bounds=bounds, constraints=limits, options={"maxiter": maxiter, "ftol": 1e-5})
     x = np.clip(result.x[:-1], -np.tile(kin.v_max, KNOTS), np.tile(kin.v_max, KNOTS))
     if feasible(x):
-        best = max(best, float(separations(x)[0].min()))
-    return Escape(bool(best >= critical_m), best, (t0, t1))
+        value = float(separations(x)[0].min())
+        if value > best:
+            best, start = value, x
+    witness = None if best == -np.inf else start.reshape(KNOTS, n)
+    return Escape(bool(best >= critical_m), best, (t0, t1), witness)
