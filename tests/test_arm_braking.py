@@ -11,11 +11,11 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, braking_distance, braking_speed, safe_speed, stop_distance,
+from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, stop_time, braking_distance, braking_speed, safe_speed, stop_distance,
                                      viable_speed)
 from cobotsafety.arm.robots import ROBOTS
 from compiled_arm import robot
-from oracles.braking import braking_travel
+from oracles.braking import braking_duration, braking_travel
 
 PERIODS_S = (1e-3, 1 / 275, 4e-3, 1e-2)
 decels = st.floats(0.5, 50.0)
@@ -153,3 +153,34 @@ def test_every_joint_at_its_velocity_limit_brakes_before_its_position_limit(name
                 assert gap >= 0.0, (model.joint_names[iv], speed)
             assert slowed and braking_travel(speed, accel, acc, jerk, dt) <= gap + 1e-12
     assert runs >= len(model.limited)
+
+
+@SETTINGS
+@given(speed=st.floats(-1.0, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_stop_time_bounds_the_simulated_braking_and_is_not_loose(speed, share, decel, jerk, dt):
+    """The time a person walks on while the arm stops (ISO/TS 15066's T_s): never shorter than
+    the simulated jerk-limited stop, and longer by at most the ramp's and a few steps' slack."""
+    accel = share * decel
+    duration = braking_duration(speed, accel, decel, jerk, dt)
+    bound = stop_time(speed, accel, decel, jerk, dt)
+    assert duration <= bound + 1e-12
+    assert bound - duration <= max(accel, 0.0) ** 2 / (2.0 * jerk * decel) + 2.0 * decel / jerk + 3.0 * dt + 1e-12
+
+
+@SETTINGS
+@given(seed=st.integers(0, 2**32 - 1), dt=periods)
+def test_the_whole_arm_stops_within_arm_stop_time_after_one_more_step(seed, dt):
+    """Every joint, after one more step at its acceleration limit toward speeding up, then
+    braking at its own limits, and the hand's fastest axis likewise, stand still within
+    ``arm_stop_time``."""
+    rng = np.random.default_rng(seed)
+    n = 7
+    acc, jerk = rng.uniform(1.0, 20.0, n), 10.0 ** rng.uniform(1.0, 4.0, n)
+    qdot, qddot = rng.uniform(-2.0, 2.0, n), rng.uniform(-1.0, 1.0, n) * acc
+    ee_acc, ee_jerk = rng.uniform(0.5, 10.0), 10.0 ** rng.uniform(1.0, 4.0)
+    ee = rng.uniform(-1.0, 1.0, 3)
+    bound = arm_stop_time(qdot, qddot, ee, acc, jerk, ee_acc, ee_jerk, dt)
+    for j in range(n):
+        speeding = qddot[j] * np.sign(qdot[j]) if qdot[j] != 0.0 else qddot[j]
+        assert braking_duration(abs(qdot[j]) + acc[j] * dt, speeding, acc[j], jerk[j], dt) <= bound + 1e-12
+    assert braking_duration(np.abs(ee).max() + ee_acc * dt, ee_acc, ee_acc, ee_jerk, dt) <= bound + 1e-12

@@ -313,9 +313,9 @@ def test_the_contradiction_warning_comes_once_per_episode_with_a_count(caplog):
     controller = ArmController("panda", zones=[])
     p = controller.p_base_ee_m
     sides = np.array([[0.0, 0.3, 0.0], [0.0, -0.3, 0.0]])
-    v = np.array([[0.0, -0.3, 0.0], [0.0, 0.3, 0.0]])  # closing from both sides at once
-    human = HumanCapsules(p + sides, p + sides + [0, 0, 0.3], [0.05, 0.05], ("left", "right"),
-                          v0_b_m_s=v, v1_b_m_s=v)
+    # Standing inside the critical distance on both sides: each asks the arm to drift out (a
+    # person walking at it asks only that it can stop, which never contradicts).
+    human = HumanCapsules(p + sides, p + sides + [0, 0, 0.3], [0.05, 0.05], ("left", "right"))
     with caplog.at_level(logging.WARNING, logger="cobotsafety.arm.controller"):
         controller.set_human(human)
         reports = [controller.step(np.array([0.0, 0.3, 0.0]), DT) for _ in range(10)]
@@ -485,3 +485,74 @@ def test_next_to_a_person_the_anticipative_arm_moves_out_of_the_way():
     assert np.all(np.diff(evading) < FilterSettings().field_max_repulsion_m_s * DT + 1e-6)
     assert np.ptp(sliding) < 0.005  # the rows alone: standing still (centering only)
     assert evading.min() > HumanLimitation().critical_m
+
+
+def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_limits():
+    """ISO/TS 15066's separation: the robot must be able to stand still before the person,
+    still walking at it, reaches the limitation; it need not outrun them. The iiwa (1 m/s and
+    2 m/s^2 at the hand) is driven at a person walking at it at 1.6 m/s (ISO 13855's walking
+    speed) who stops inside the critical distance: on no step does it exceed its motion limits,
+    and it is no longer approaching when the separation reaches the critical distance. (The
+    old row asked the arm to retreat as fast as the person came: hundreds of steps beyond the
+    limits.)"""
+    controller = ArmController("iiwa", zones=[], settings=SLIDING)
+    hand = controller.p_base_ee_m.copy()
+    toward = np.array([0.0, 0.3, 0.0])  # the user drives the hand at the person
+    reports, distances, approach = [], [], []
+    for i in range(int(1.2 / DT)):
+        gap = max(1.6 - 1.6 * i * DT, 0.05)
+        walking = gap > 0.05
+        human = torso(hand + [0.0, gap + 0.12, 0.0], v=(0.0, -1.6 if walking else 0.0, 0.0))
+        before = separation(controller, human)
+        controller.set_human(human)
+        reports.append(controller.step(toward, DT))
+        distances.append(separation(controller, human))
+        approach.append(before - distances[-1])  # the arm's own closing over the step [m]
+    assert not any(r.safety_over_smoothness for r in reports)
+    first_inside = int(np.argmax(np.array(distances) < controller.human.critical_m))
+    assert distances[first_inside] < controller.human.critical_m  # the person did get that close
+    assert approach[first_inside] <= 1e-9  # and met an arm at rest (or leaving)
+    assert max(approach) > 1e-4  # the arm did approach while that was safe
+
+
+def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
+    """``field_repulsion`` with ``limit_scale``: the weighted least-norm solution
+    ``W^-1 J^T (J W^-1 J^T + lambda I)^-1 f s`` of Chan and Dubey (1995), ``W = diag(1 +
+    |dH/dq|)`` with the joint-limit measure ``H = sum (u - l)^2 / (4 (u - q)(q - l))``, here
+    differentiated numerically; at mid-range every weight is 1 (paper 2's repulsion), and a
+    joint near its limit moves less than in paper 2's (the others take over)."""
+    from compiled_arm import compiled_kinematics, robot
+    from cobotsafety.arm.step_kernel import field_repulsion, limit_scale, unpack_robot
+
+    model = robot("iiwa")
+    unpacked = unpack_robot(model.robot_i, model.robot_f)
+    cap_joint, axes, idx_v, support, limited = unpacked[8], unpacked[10], unpacked[6], unpacked[7], unpacked[9]
+    lower, upper = model.lower, model.upper
+    middle = 0.5 * (lower + upper)
+    q = model.home_q.copy()
+    q[3] = upper[3] - 0.03 * (upper[3] - lower[3])  # the elbow 3 % of its range from its limit
+    _, _, _, J6, oR, op, p0, p1 = compiled_kinematics(model, q)
+    kin = Kinematics(model, q)
+    capsule = len(model.capsules) - 2
+    p_robot = 0.5 * (p0[capsule] + p1[capsule])
+    s = np.array([0.0, 0.6, 0.8])
+    critical, influence, k_rep, f_max, damping = 0.2, 0.3, 0.1, 0.5, 1e-3
+    d = 0.3
+    f = min(k_rep * (influence / (d - critical) - 1.0), f_max)
+
+    def H(x):
+        return float(np.sum((upper - lower) ** 2 / (4.0 * (upper - x) * (x - lower))))
+
+    h = 1e-7
+    grad = np.array([(H(q + h * e) - H(q - h * e)) / (2 * h) for e in np.eye(len(q))])
+    W_inv = np.diag(1.0 / (1.0 + np.abs(grad)))
+    J_cp = kin.point_jacobian(kin.capsule_joint[capsule], p_robot)
+    expected = W_inv @ J_cp.T @ np.linalg.solve(J_cp @ W_inv @ J_cp.T + damping * np.eye(3), f * s)
+    scale = limit_scale(q, lower, upper, limited, len(q))
+    qdot = field_repulsion(d, capsule, p_robot, p_robot - 0.3 * s, len(q), cap_joint, oR, op, axes, idx_v, support,
+                           critical, influence, k_rep, f_max, damping, scale)
+    np.testing.assert_allclose(qdot, expected, rtol=1e-5, atol=1e-9)
+    plain = field_repulsion(d, capsule, p_robot, p_robot - 0.3 * s, len(q), cap_joint, oR, op, axes, idx_v, support,
+                            critical, influence, k_rep, f_max, damping, np.ones(len(q)))
+    assert abs(qdot[3]) < 0.7 * abs(plain[3])  # the elbow near its limit moves less (the others take over)
+    np.testing.assert_allclose(limit_scale(middle, lower, upper, limited, len(q)), 1.0)

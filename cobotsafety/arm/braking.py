@@ -27,7 +27,9 @@ states and checks it stops before the limitation.
 The same bound serves every limitation: for a joint ``a`` and ``j`` are its own limits times the
 braking share; for a Cartesian limitation (zones, table, reach, the human) they are what the
 joints can give along its normal ``n`` (``share * sum_i |n_i| a_i``), at most the
-end-effector's own limits; for a human the approach speed is the robot's plus the human's.
+end-effector's own limits (per axis: the end-effector's box). For a person walking at the arm
+the gap is shortened by how far they walk while the arm's approach ends (``stop_time``, ISO/TS
+15066's ``v_h T_s``); ``arm_stop_time`` bounds how long the whole arm takes to stand still.
 """
 
 from __future__ import annotations
@@ -91,6 +93,35 @@ def stop_distance(speed, accel, decel, jerk, dt_s):  # pragma: no cover - compil
     if v1 <= 0.0:
         return max(x1, 0.0) + excess
     return max(x1 + v1 * v1 / (2.0 * decel), 0.0) + excess
+
+
+@numba.njit(cache=True)
+def stop_time(speed, accel, decel, jerk, dt_s):  # pragma: no cover - compiled
+    """An upper bound [s] on how long the arm takes to stand still along a limitation's normal
+    when it brakes now from ``speed`` and acceleration ``accel`` (toward it: > 0), as in
+    ``stop_distance``: the ramp to ``-decel`` (``(accel + decel) / jerk``), then the speed left
+    (at most ``speed + accel^2 / 2 jerk``) at ``decel``, plus two steps (each phase rounded up
+    to whole steps)."""
+    accel = min(max(accel, -decel), decel)
+    peak = max(speed, 0.0) + 0.5 * max(accel, 0.0) ** 2 / jerk
+    return (accel + decel) / jerk + peak / decel + 2.0 * dt_s
+
+
+@numba.njit(cache=True)
+def arm_stop_time(qdot, qddot, ee_velocity, acc, jerk, ee_axis_acc, ee_axis_jerk, dt_s):  # pragma: no cover - compiled
+    """An upper bound [s] on how long the whole arm takes to stand still if it starts braking
+    after one more step at its limits: every joint (speed ``|qdot|`` plus one step of ``acc``,
+    its acceleration toward speeding up) and the hand's fastest axis (``ee_velocity``, within
+    its per-axis box ``ee_axis_acc``, ``ee_axis_jerk``), each by ``stop_time``; the longest."""
+    longest = 0.0
+    for j in range(qdot.shape[0]):
+        speed = abs(qdot[j])
+        speeding = qddot[j] if qdot[j] >= 0.0 else -qddot[j]
+        longest = max(longest, stop_time(speed + acc[j] * dt_s, speeding, acc[j], jerk[j], dt_s))
+    hand = 0.0
+    for r in range(ee_velocity.shape[0]):
+        hand = max(hand, abs(ee_velocity[r]))
+    return max(longest, stop_time(hand + ee_axis_acc * dt_s, ee_axis_acc, ee_axis_acc, ee_axis_jerk, dt_s))
 
 
 @numba.njit(cache=True)

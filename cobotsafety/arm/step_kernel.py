@@ -23,8 +23,10 @@ The step:
    null basis (``task.py``);
 2. every limitation's rows ``(d, a, rate)`` (``limitations/``) and their bounds
    (``limitation_bounds``): the approach speed from which the arm can still brake before the
-   limitation (``braking.braking_speed``), the human's own approach added, SSM's speed limit;
-   the joints' speed limits; the motion box of each joint (acceleration and jerk limits from the
+   limitation (``braking.braking_speed``); for a person walking at the arm, ISO/TS 15066's
+   separation (the arm must be able to stand still before they reach it, their rows watched
+   from as far as they walk while the whole arm stops), the plan retreating as fast as they
+   come; SSM's speed limit; the joints' speed limits; the motion box of each joint (acceleration and jerk limits from the
    previous step) and of the end-effector;
 3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``), next to a person ``q0``
    plus ``evasion_gain`` times paper 2's repulsion (``field_repulsion``); ``stop`` commands zero as
@@ -45,7 +47,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import safe_speed
+from cobotsafety.arm.braking import arm_stop_time, safe_speed, stop_time
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_STOPPED,
                                           LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
@@ -183,12 +185,13 @@ def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover 
 
 @numba.njit(cache=True)
 def field_repulsion(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m,
-                    influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
+                    influence_m, k_rep_m_s, max_repulsion_m_s, damping, joint_scale):  # pragma: no cover - compiled
     """Paper 2's repulsion (eqs. 18-21, errata 5-6) as a joint velocity (nv,): ``DLS(J_cp, f s)``
     with ``f = k_rep (d_o / (d - d_cr) - 1)`` (at most ``max_repulsion_m_s``) within
     ``d_cr + d_o`` of the human, ``s`` the unit vector from the human's closest point to the
     robot's, ``J_cp`` the Jacobian of the robot's closest point; zero outside (or without a
-    human). The caller handles ``d <= d_cr``."""
+    human). The caller handles ``d <= d_cr``. ``joint_scale`` (nv,) weighs the joints: the
+    weighted least norm ``D DLS(J_cp D, f s)``, ``D = diag(joint_scale)`` (all ones: paper 2's)."""
     if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m or d_min <= critical_m:
         return np.zeros(nv)
     f = min(k_rep_m_s * (influence_m / (d_min - critical_m) - 1.0), max_repulsion_m_s)
@@ -202,7 +205,28 @@ def field_repulsion(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axe
         e[:] = 0.0
         e[r] = 1.0
         point_jacobian_row(e, p_robot, cap_joint[capsule], oR, op, axes, idx_v, support, J_cp[r])
-    return damped_least_squares(J_cp, f * s, damping)
+        for j in range(nv):
+            J_cp[r, j] *= joint_scale[j]
+    qdot = damped_least_squares(J_cp, f * s, damping)
+    for j in range(nv):
+        qdot[j] *= joint_scale[j]
+    return qdot
+
+
+@numba.njit(cache=True)
+def limit_scale(q, lower, upper, limited, nv):  # pragma: no cover - compiled
+    """Chan and Dubey's weighted least norm ("A weighted least-norm solution based inverse
+    kinematic scheme for redundant manipulators", IEEE T-RA 1995) as column scales (nv,):
+    ``1 / sqrt(1 + |dH/dq_i|)``, ``H = sum (u - l)^2 / (4 (u - q)(q - l))`` the joint-limit
+    measure (1 at mid-range, growing without bound at a limit; unlimited joints 1)."""
+    scale = np.ones(nv)
+    for i in range(limited.shape[0]):
+        iq, iv = limited[i, 0], limited[i, 1]
+        span = upper[iq] - lower[iq]
+        to_upper, to_lower = max(upper[iq] - q[iq], 1e-6), max(q[iq] - lower[iq], 1e-6)
+        grad = span * span * (2.0 * q[iq] - upper[iq] - lower[iq]) / (4.0 * to_upper * to_upper * to_lower * to_lower)
+        scale[iv] = 1.0 / np.sqrt(1.0 + abs(grad))
+    return scale
 
 
 @numba.njit(cache=True)
@@ -217,13 +241,14 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
         return np.zeros(nv), True
     return damped_least_squares(J, v_att, damping) + field_repulsion(
         d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m, influence_m,
-        k_rep_m_s, max_repulsion_m_s, damping), False
+        k_rep_m_s, max_repulsion_m_s, damping, np.ones(nv)), False
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, ee_speed_prev, dt_s, acc,
-                      jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m, width_rad,
-                      speed_cap, ssm, ssm_params, plan, keep_plan, safety, keep_safety):  # pragma: no cover - compiled
+def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, ee_speed_prev, dt_s,
+                      acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m,
+                      width_rad, speed_cap, ssm, ssm_params, plan, keep_plan, safety,
+                      keep_safety):  # pragma: no cover - compiled
     """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
     limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
     motion limits) into ``safety``; ``keep_*`` False for rows no velocity within the joints'
@@ -238,7 +263,12 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
     bottleneck joint allows), so that budgets of rows binding at once are met by one braking;
     a moving human's rows keep the capacity along their own normal (a retreat is not a stop).
     Inside the buffer: drift out at ``recovery_gain`` times the intrusion (never deeper). A
-    human's own approach (``rate`` < 0) is added; with SSM the arm's own approach to a human
+    person walking at the arm (``rate`` < 0, their approach speed ``v_h``): the plan retreats
+    as they come (their approach added to the arm's), but the safety bound is ISO/TS 15066's
+    separation (``S = v_h (T_r + T_s) + ...``): the arm's own approach no faster than it can
+    end within the gap less how far the person walks meanwhile (``braking.stop_time``), and
+    inside the buffer braking toward standstill at the full limits: the arm need not outrun a
+    person, it must be able to stop for them. With SSM the arm's own approach to a human
     (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
     15066's speed for that separation. A retreat never asks for more than the speed cap."""
     nv = A.shape[1]
@@ -248,9 +278,9 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
         if abs(qdot_prev[j]) > 1e-9:
             stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
             stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
-    if ee_speed_prev > 1e-9:  # the hand stops with the arm: within its own limits too
-        stop_decel = min(stop_decel, EE_MOTION_SHARE * ee_acc / ee_speed_prev)
-        stop_jerk = min(stop_jerk, EE_MOTION_SHARE * ee_jerk / ee_speed_prev)
+    if ee_speed_prev > 1e-9:  # the hand stops with the arm: within its own box too (per axis)
+        stop_decel = min(stop_decel, EE_MOTION_SHARE / np.sqrt(3.0) * ee_acc / ee_speed_prev)
+        stop_jerk = min(stop_jerk, EE_MOTION_SHARE / np.sqrt(3.0) * ee_jerk / ee_speed_prev)
     for i in range(count):
         decel, jerk_n, reach, own_speed, own_accel = 0.0, 0.0, 0.0, 0.0, 0.0
         for j in range(nv):
@@ -260,9 +290,9 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
             reach += w * vel[j]
             own_speed -= A[i, j] * qdot_prev[j]
             own_accel -= A[i, j] * qddot_prev[j]
-        if not angular[i]:
-            decel = min(decel, ee_acc)
-            jerk_n = min(jerk_n, ee_jerk)
+        if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
+            decel = min(decel, EE_MOTION_SHARE * ee_acc / np.sqrt(3.0))
+            jerk_n = min(jerk_n, EE_MOTION_SHARE * ee_jerk / np.sqrt(3.0))
         keep_plan[i], keep_safety[i] = False, False
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
@@ -277,13 +307,28 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
         human_closing = -min(rate[i], 0.0)
         cap = speed_cap if not angular[i] else 0.5 * reach
         if gap <= 0.0:
-            plan_bound = safety_bound = -recovery_gain * gap + human_closing
+            plan_bound = -recovery_gain * gap + human_closing
+            if human_closing > 0.0:  # inside a moving person's distance: brake to standstill at the limits
+                safety_bound = -max(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s, 0.0)
+            else:
+                safety_bound = -recovery_gain * gap
         else:
             speed_now = own_speed + human_closing
             allowed, _ = safe_speed(gap, speed_now, own_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
             plan_bound = human_closing - allowed
             if allowed == np.inf:
                 safety_bound = -np.inf  # viable at full speed with less: with the full limits too
+            elif human_closing > 0.0:
+                # ISO/TS 15066's separation: the arm must be able to stand still before the
+                # person, still walking at it, reaches the limitation; it need not outrun them
+                # (the plan above still retreats as fast as they come, within the limits).
+                # The person walks on while the arm's approach along this row ends (from the
+                # fastest it may take next step, braking at the row's limits).
+                fastest_next = max(own_speed, 0.0) + decel * dt_s
+                room = gap - human_closing * stop_time(fastest_next, own_accel, decel, jerk_n, dt_s)
+                allowed, factor = safe_speed(room, own_speed, own_accel, decel, jerk_n, dt_s, reach)
+                worst_factor = max(worst_factor, factor)
+                safety_bound = -allowed
             else:
                 allowed, factor = safe_speed(gap, speed_now, own_accel, decel, jerk_n, dt_s, reach + human_closing)
                 worst_factor = max(worst_factor, factor)
@@ -399,11 +444,19 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     angular, tag = np.empty(max_lim_rows, dtype=np.bool_), np.empty((max_lim_rows, 3), dtype=np.int64)
     before = np.empty(n_before)
     out = (dist, A, rate, angular, tag)
+    # A person walking at the arm is watched from farther: their speed times the time the arm
+    # needs to stand still from its motion now (every joint braked together, ramps included).
+    walk_m = 0.0
+    for h in range(n_human):
+        walk_m = max(walk_m, np.sqrt(np.sum(hv0[h] * hv0[h])), np.sqrt(np.sum(hv1[h] * hv1[h])))
+    if walk_m > 0.0:
+        walk_m *= arm_stop_time(qdot_prev, qddot_prev, u_prev, acc, jerk, EE_MOTION_SHARE / np.sqrt(3.0) * ee_acc,
+                                EE_MOTION_SHARE / np.sqrt(3.0) * ee_jerk, dt_s)
     m = 0
     for con in range(n_lim):
         kind = scene_i[con, 0]
         m = kind_rows(kind, reals[con], scene_i[con, 1], con, kin, hum,
-                      reals[con, 1] if kind == human_kind.KIND else activation_m, out, m,
+                      reals[con, 1] + walk_m if kind == human_kind.KIND else activation_m, out, m,
                       before[before_start[con]:before_start[con + 1]])
     is_human = np.zeros(m, dtype=np.bool_)
     separation = np.full(m, np.inf)  # the human rows' capsule distance [m]
@@ -432,8 +485,20 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
         # Next to a person the command is the user's plus paper 2's repulsion at the arm's
         # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the
         # field does, and the rows below still keep every limitation.
+        # Chan and Dubey's weights on the joints moving toward a limit (paper 2's repulsion first,
+        # unweighted, says which): the evasion leaves joints near their limits alone rather
+        # than wedging the arm against several limits at once.
+        unweighted = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
+                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping,
+                                     np.ones(nv))
+        scale = limit_scale(q, lower, upper, limited, nv)
+        for i in range(limited.shape[0]):
+            iq, iv = limited[i, 0], limited[i, 1]
+            if unweighted[iv] * (q[iq] - 0.5 * (lower[iq] + upper[iq])) <= 0.0:
+                scale[iv] = 1.0  # moving toward the middle: free
         repulsion = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
-                                    field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
+                                    field_critical, field_influence, field_k_rep, field_max_rep, field_damping,
+                                    scale)
         for j in range(nv):
             q0[j] += evasion_gain * repulsion[j]
             evading = evading or repulsion[j] != 0.0
@@ -448,7 +513,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
     safe_keep = np.ones(m, dtype=np.bool_)
     ee_velocity_prev = matvec(J, qdot_prev)
-    ee_speed_prev = np.sqrt(np.sum(ee_velocity_prev * ee_velocity_prev))
+    ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
     brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, ee_speed_prev,
                                      dt_s, acc,
                                      jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,

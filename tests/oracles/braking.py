@@ -19,3 +19,17 @@ def braking_travel(speed: float, accel: float, decel: float, jerk: float, dt_s: 
         if v <= 0.0 and a <= 0.0:
             return farthest
     raise RuntimeError("braking did not stop")
+
+
+def braking_duration(speed: float, accel: float, decel: float, jerk: float, dt_s: float,
+                     max_steps: int = 10**7) -> float:
+    """How long [s] the same discrete stop as ``braking_travel`` takes: the steps until the
+    velocity is no longer positive while the acceleration is not."""
+    a = min(max(accel, -decel), decel)
+    v = speed
+    for k in range(1, max_steps + 1):
+        a = max(a - jerk * dt_s, -decel)
+        v += a * dt_s
+        if v <= 0.0 and a <= 0.0:
+            return k * dt_s
+    raise RuntimeError("braking did not stop")

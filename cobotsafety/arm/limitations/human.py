@@ -89,7 +89,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    """The pairs within the limitation's own activation distance (``real[1]``)."""
+    """The pairs within ``activation_m`` (the limitation's own ``real[1]``, or farther for a
+    person walking at the arm: see ``arm_step``)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
     hp0, hp1, hr, hv0, hv1 = human
     dist, A, rate, angular, tag = out
@@ -100,7 +101,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
         for h in range(k):
             d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
             before[i * k + h] = d - real[0]
-            if d >= real[1]:
+            if d >= activation_m:
                 continue
             gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
             norm = np.sqrt(gx * gx + gy * gy + gz * gz)
