@@ -11,8 +11,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, stop_time, braking_distance, braking_speed, safe_speed, stop_distance,
-                                     viable_speed)
+from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, braking_distance, braking_speed, safe_speed,
+                                     stop_distance, stop_time, viable_speed)
 from cobotsafety.arm.robots import ROBOTS
 from compiled_arm import robot
 from oracles.braking import braking_duration, braking_travel

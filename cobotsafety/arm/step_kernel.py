@@ -26,8 +26,8 @@ The step:
    limitation (``braking.braking_speed``); for a person walking at the arm, ISO/TS 15066's
    separation (the arm must be able to stand still before they reach it, their rows watched
    from as far as they walk while the whole arm stops), the plan retreating as fast as they
-   come; SSM's speed limit; the joints' speed limits; the motion box of each joint (acceleration and jerk limits from the
-   previous step) and of the end-effector;
+   come; SSM's speed limit; the joints' speed limits; the motion box of each joint
+   (acceleration and jerk limits from the previous step) and of the end-effector;
 3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``), next to a person ``q0``
    plus ``evasion_gain`` times paper 2's repulsion (``field_repulsion``); ``stop`` commands zero as
    soon as ``q0`` would break a bound (the arm brakes within its limits); ``reactive`` is paper
