@@ -150,6 +150,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     difference = np.eye(KNOTS * n) - np.eye(KNOTS * n, k=-n)
     previous = np.concatenate([v0, np.zeros((KNOTS - 1) * n)])
     steps = np.tile(step, KNOTS)
+    v_bound = np.tile(kin.v_max, KNOTS)  # each knot's velocity limit
 
     def accelerations(x: np.ndarray) -> np.ndarray:
         change = difference @ x[: KNOTS * n] - previous
@@ -159,7 +160,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         q = positions(x)
         return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
                     and np.all(accelerations(x) >= -1e-9 * steps.max())
-                    and np.all(np.abs(x[: KNOTS * n]) <= np.tile(kin.v_max, KNOTS) + 1e-12))
+                    and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12))
 
     # Candidates first, each reached at the acceleration limits: brake to a stop, the logged
     # motion reversed (a retreat along it), the steepest retreat at full or half speed.
@@ -196,10 +197,10 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
                "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
               {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian}]
     x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
-    bounds = [(-v, v) for v in np.tile(kin.v_max, KNOTS)] + [(None, None)]
+    bounds = [(-v, v) for v in v_bound] + [(None, None)]
     result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
                       bounds=bounds, constraints=limits, options={"maxiter": maxiter, "ftol": 1e-5})
-    x = np.clip(result.x[:-1], -np.tile(kin.v_max, KNOTS), np.tile(kin.v_max, KNOTS))
+    x = np.clip(result.x[:-1], -v_bound, v_bound)
     if feasible(x):
         value = float(separations(x)[0].min())
         if value > best:
