@@ -165,7 +165,9 @@ def _dual_active_set(G, h, tol):  # pragma: no cover - compiled
             zz, regular = _direction(G, active, na, p, z, r)
             if not regular:
                 return x, False
-            t_full = -s_p / zz if zz > 1e-24 else np.inf
+            # n active rows span every direction: row p is in their span (its ``z`` is rounding
+            # only) and takes a partial step; a full one would add an (n+1)-th active row.
+            t_full = -s_p / zz if zz > 1e-24 and na < n else np.inf
             t_partial = np.inf
             drop = -1
             for a in range(na):

@@ -4,14 +4,16 @@ check of its own answer (``slide`` never hands out a result that misses a row)."
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from cobotsafety import least_distance
 from cobotsafety.errors import InfeasibleConstraintsError
-from cobotsafety.least_distance import (INFEASIBLE, NOT_MET, RELAX_DONE, RELAX_HARD_CONTRADICT, RELAX_STAGE_INFEASIBLE,
-                                        RELAXATION_COMMAND_WEIGHT, SOLVED, ZERO_ROW_INFEASIBLE, relax_kernel,
-                                        slide_kernel)
+from cobotsafety.least_distance import (FEASIBILITY_TOLERANCE, INFEASIBLE, NOT_MET, RELAX_DONE,
+                                        RELAX_HARD_CONTRADICT, RELAX_STAGE_INFEASIBLE, RELAXATION_COMMAND_WEIGHT,
+                                        SOLVED, ZERO_ROW_INFEASIBLE, relax_kernel, slide_kernel)
 from cobotsafety.projection import slide
 from oracles.projection import kkt_residual, quadprog_projection, quadprog_relaxation
 
@@ -169,3 +171,22 @@ def test_slide_checks_its_result_before_handing_it_out(wrong_solver):
     assert status == NOT_MET
     with pytest.raises(InfeasibleConstraintsError, match="misses a half-space"):
         slide(np.zeros(2), N, b)
+
+
+def test_the_active_set_never_holds_more_rows_than_dimensions():
+    """Unit rows from the arm's step (panda beside a person, ``bench arm``'s human step; 67 rows
+    in 7 dimensions, boxes of nearly opposite rows): seven rows active span every direction, and
+    an eighth violated row is in their span up to rounding (``|z|^2`` ~ 1e-23). Its full step
+    was taken before (``t = -s / |z|^2``, an answer of 1e12) and made an eighth then a ninth
+    active row: the Python source raised IndexError, the compiled code wrote past its array."""
+    data = np.load(Path(__file__).parent / "data" / "least_distance" / "full_rank_active_set.npz")
+    G, h = data["G"], data["h"]
+    for tol in (1e-12, FEASIBILITY_TOLERANCE):
+        x_source, ok_source = least_distance._dual_active_set.py_func(G.copy(), h.copy(), tol)
+        x, ok = least_distance._dual_active_set(G.copy(), h.copy(), tol)
+        assert ok == ok_source and np.allclose(x, x_source, rtol=0.0, atol=1e-12)
+        assert np.max(np.abs(x)) < 1.0  # the least-norm point of rows with bounds < 0.6
+    # The tolerance the slide falls back to solves it: every row met, and the least-norm point.
+    x, ok = least_distance._dual_active_set(G.copy(), h.copy(), FEASIBILITY_TOLERANCE)
+    assert ok and np.all(G @ x >= h - FEASIBILITY_TOLERANCE)
+    assert kkt_residual(x, np.zeros(G.shape[1]), G, h, active_tol=1e-8) <= 1e-8
