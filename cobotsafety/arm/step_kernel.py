@@ -44,6 +44,8 @@ The step:
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -78,6 +80,10 @@ OWNER_VELOCITY, OWNER_MOTION, OWNER_SPEED, OWNER_EE_MOTION = -1, -2, -3, -4
 CROSSING_TOLERANCE_M = 1e-9
 #: The share of the end-effector's acceleration and jerk limits the filter plans with.
 EE_MOTION_SHARE = 0.9
+#: Its share per axis: the filter bounds the end-effector's acceleration and jerk per axis
+#: (a box), each axis at ``1 / sqrt(3)`` of the share so that the norm holds; braking along any
+#: direction is planned within that box.
+EE_AXIS_SHARE = EE_MOTION_SHARE / math.sqrt(3.0)
 #: The motion box is planned this far inside the acceleration and jerk limits, so that the
 #: solver's tolerance (1e-9 on rows scaled to unit length) never pushes a command past them.
 MOTION_MARGIN = 1.0 - 1e-4
@@ -279,8 +285,8 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
             stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
             stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
     if ee_speed_prev > 1e-9:  # the hand stops with the arm: within its own box too (per axis)
-        stop_decel = min(stop_decel, EE_MOTION_SHARE / np.sqrt(3.0) * ee_acc / ee_speed_prev)
-        stop_jerk = min(stop_jerk, EE_MOTION_SHARE / np.sqrt(3.0) * ee_jerk / ee_speed_prev)
+        stop_decel = min(stop_decel, EE_AXIS_SHARE * ee_acc / ee_speed_prev)
+        stop_jerk = min(stop_jerk, EE_AXIS_SHARE * ee_jerk / ee_speed_prev)
     for i in range(count):
         decel, jerk_n, reach, own_speed, own_accel = 0.0, 0.0, 0.0, 0.0, 0.0
         for j in range(nv):
@@ -291,8 +297,8 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
             own_speed -= A[i, j] * qdot_prev[j]
             own_accel -= A[i, j] * qddot_prev[j]
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
-            decel = min(decel, EE_MOTION_SHARE * ee_acc / np.sqrt(3.0))
-            jerk_n = min(jerk_n, EE_MOTION_SHARE * ee_jerk / np.sqrt(3.0))
+            decel = min(decel, EE_AXIS_SHARE * ee_acc)
+            jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
         keep_plan[i], keep_safety[i] = False, False
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
@@ -450,8 +456,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     for h in range(n_human):
         walk_m = max(walk_m, np.sqrt(np.sum(hv0[h] * hv0[h])), np.sqrt(np.sum(hv1[h] * hv1[h])))
     if walk_m > 0.0:
-        walk_m *= arm_stop_time(qdot_prev, qddot_prev, u_prev, acc, jerk, EE_MOTION_SHARE / np.sqrt(3.0) * ee_acc,
-                                EE_MOTION_SHARE / np.sqrt(3.0) * ee_jerk, dt_s)
+        walk_m *= arm_stop_time(qdot_prev, qddot_prev, u_prev, acc, jerk, EE_AXIS_SHARE * ee_acc,
+                                EE_AXIS_SHARE * ee_jerk, dt_s)
     m = 0
     for con in range(n_lim):
         kind = scene_i[con, 0]
@@ -594,9 +600,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     # acceleration seen through today's Jacobian); EE_MOTION_SHARE leaves the rest to the
     # motion's curvature (the executed acceleration is J qddot + dJ/dt qdot).
     ee_lo, ee_hi = np.empty(3), np.empty(3)
-    share = EE_MOTION_SHARE / np.sqrt(3.0)
-    motion_box(matvec(J, qdot_prev), matvec(J, qddot_prev), np.full(3, share * ee_acc), np.full(3, share * ee_jerk),
-               np.full(3, np.inf), dt_s, ee_lo, ee_hi)
+    motion_box(matvec(J, qdot_prev), matvec(J, qddot_prev), np.full(3, EE_AXIS_SHARE * ee_acc),
+               np.full(3, EE_AXIS_SHARE * ee_jerk), np.full(3, np.inf), dt_s, ee_lo, ee_hi)
     for r in range(3):
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
