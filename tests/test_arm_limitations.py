@@ -227,3 +227,27 @@ def test_row_gradients_and_the_human_rate_match_finite_differences(name):
                 assert rate[i] == pytest.approx((later[t] - earlier[t]) / (2 * eps), rel=1e-5, abs=1e-6), t
                 checked["rate"] = checked.get("rate", 0) + 1
     assert set(checked) == {m.__name__ for m in KINDS} | {"rate"}, checked
+
+
+def test_the_extended_reachs_outward_drift_is_the_second_derivative_of_the_radius():
+    """A hand moving at constant velocity ``v`` from ``p``: ``d^2/dt^2 |p + v t - c|`` at 0 (a
+    central finite difference, an independent oracle) is ``outward_drift``; zero for a radial
+    motion, ``|v|^2 / r`` for a tangential one."""
+    from cobotsafety.arm.limitations.reach import outward_drift
+
+    rng = np.random.default_rng(47)
+    real = np.zeros(12)
+    for _ in range(200):
+        real[0:3] = rng.normal(size=3)
+        p = real[0:3] + rng.normal(size=3) * rng.uniform(0.2, 1.2)
+        v = rng.normal(size=3) * rng.uniform(0.01, 1.0)
+        h = 1e-4
+
+        def radius(t):
+            return float(np.linalg.norm(p + v * t - real[0:3]))
+
+        second = (radius(h) - 2.0 * radius(0.0) + radius(-h)) / (h * h)
+        assert outward_drift(real, p, v) == pytest.approx(second, rel=1e-5, abs=1e-7)
+    p = real[0:3] + np.array([0.8, 0.0, 0.0])
+    assert outward_drift(real, p, np.array([0.3, 0.0, 0.0])) == 0.0
+    assert outward_drift(real, p, np.array([0.0, 0.4, 0.0])) == pytest.approx(0.16 / 0.8, rel=1e-12)

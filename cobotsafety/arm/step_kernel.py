@@ -54,7 +54,7 @@ from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTH
                                           LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.limitations import human as human_kind
-from cobotsafety.arm.limitations import joint_range
+from cobotsafety.arm.limitations import joint_range, reach
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
@@ -87,6 +87,9 @@ EE_AXIS_SHARE = EE_MOTION_SHARE / math.sqrt(3.0)
 #: The motion box is planned this far inside the acceleration and jerk limits, so that the
 #: solver's tolerance (1e-9 on rows scaled to unit length) never pushes a command past them.
 MOTION_MARGIN = 1.0 - 1e-4
+#: The least share of a row's deceleration a brake keeps when the limitation's curvature pulls
+#: the arm toward it (beyond it, the sliding is faster than the limits can hold on that curve).
+DRIFT_FLOOR = 0.25
 
 
 @numba.njit(cache=True)
@@ -251,9 +254,9 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, qddot_prev, ee_speed_prev, dt_s,
-                      acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain, width_m,
-                      width_rad, speed_cap, ssm, ssm_params, plan, keep_plan, safety,
+def limitation_bounds(dist, A, rate, angular, separation, drift, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
+                      dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
+                      width_m, width_rad, speed_cap, ssm, ssm_params, plan, keep_plan, safety,
                       keep_safety):  # pragma: no cover - compiled
     """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
     limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
@@ -276,7 +279,10 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
     inside the buffer braking toward standstill at the full limits: the arm need not outrun a
     person, it must be able to stop for them. With SSM the arm's own approach to a human
     (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
-    15066's speed for that separation. A retreat never asks for more than the speed cap."""
+    15066's speed for that separation. A retreat never asks for more than the speed cap. A
+    limitation whose curvature pulls the sliding arm toward it (``drift`` [m/s^2] > 0 at the
+    arm's velocity now: the extended reach) adds that pull to the approach's acceleration and
+    takes it from the deceleration the brake has along the row."""
     nv = A.shape[1]
     worst_factor = 1.0
     stop_decel, stop_jerk = np.inf, np.inf
@@ -299,6 +305,11 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
+        if drift[i] > 0.0:
+            # The limitation's curvature pulls the arm toward it at its speed now: part of its
+            # approach's acceleration, and held against by the brake while the arm slides on.
+            own_accel += drift[i]
+            decel = max(decel - drift[i], DRIFT_FLOOR * decel)
         keep_plan[i], keep_safety[i] = False, False
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
@@ -319,7 +330,9 @@ def limitation_bounds(dist, A, rate, angular, separation, count, q0, qdot_prev, 
             else:
                 safety_bound = -recovery_gain * gap
         else:
-            speed_now = own_speed + human_closing
+            # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
+            # the braking model starts from the rate the command gives and the pull on top)
+            speed_now = own_speed - drift[i] * dt_s + human_closing
             allowed, _ = safe_speed(gap, speed_now, own_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
             plan_bound = human_closing - allowed
             if allowed == np.inf:
@@ -520,11 +533,14 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     safe_keep = np.ones(m, dtype=np.bool_)
     ee_velocity_prev = matvec(J, qdot_prev)
     ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
-    brake_factor = limitation_bounds(dist, A, rate, angular, separation, m, q0, qdot_prev, qddot_prev, ee_speed_prev,
-                                     dt_s, acc,
-                                     jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
-                                     width_m, width_rad, speed_cap, ssm, ssm_params, bounds, keep, safe_bounds,
-                                     safe_keep)
+    drift = np.zeros(m)  # the approach acceleration each limitation's curvature adds [m/s^2]
+    for i in range(m):
+        if scene_i[tag[i, 0], 0] == reach.KIND and tag[i, 1] == 1:  # the extended side
+            drift[i] = reach.outward_drift(reals[tag[i, 0]], p_ee, ee_velocity_prev)
+    brake_factor = limitation_bounds(dist, A, rate, angular, separation, drift, m, q0, qdot_prev, qddot_prev,
+                                     ee_speed_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m,
+                                     buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params,
+                                     bounds, keep, safe_bounds, safe_keep)
     if ssm_stop and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
         approach = 0.0

@@ -47,6 +47,21 @@ def _radius(real, p_ee):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def outward_drift(real, p_ee, v):  # pragma: no cover - compiled
+    """How fast [m/s^2] a hand moving at ``v`` [m/s] with no acceleration of its own approaches
+    the extended reach: ``r'' = u . a + |v_t|^2 / r`` (``v_t`` its velocity across the radius
+    ``u``), so ``|v_t|^2 / r`` at ``a = 0``. The one concave limitation: a hand sliding along the
+    sphere drifts outward and must be pulled in; every other surface is a plane or bulges
+    toward the arm (its curvature helps a brake)."""
+    r, ox, oy, oz = _radius(real, p_ee)
+    if r <= 1e-12:
+        return 0.0
+    radial = (ox * v[0] + oy * v[1] + oz * v[2]) / r
+    across2 = max(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - radial * radial, 0.0)
+    return across2 / r
+
+
+@numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
     r, _, _, _ = _radius(real, p_ee)
