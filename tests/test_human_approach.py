@@ -196,6 +196,15 @@ def test_exp2_anticipative_is_not_the_stop_baseline(exp2_runs):
     assert a.stopped_time_s < 0.6 * s.stopped_time_s  # it yields while the walker passes (3.7 of 7 s), the stop holds (6.9)
 
 
+def test_exp2s_motion_is_measured_from_rest_where_the_run_began_and_keeps_the_limits(exp2_runs):
+    """The ratios start from the configuration before the first step: measured from the one
+    after it, the first step's velocity was charged again as a jump from rest (jerk ratio 3.00)."""
+    a = exp2_runs["anticipative"].metrics
+    assert a.safety_over_smoothness_steps == 0
+    assert a.max_joint_acceleration_ratio <= 1.0 + 1e-9 and a.max_joint_jerk_ratio <= 1.0 + 1e-9
+    assert a.max_joint_jerk_ratio > 0.5  # the arm does move
+
+
 def test_the_evasion_does_not_wedge_the_arm_against_its_joint_limits():
     """The reach-over stress case: a person reaches over the table into the task while the iiwa
     works. Paper 2's repulsion, unweighted, swung the evading arm around its base onto four

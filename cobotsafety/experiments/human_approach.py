@@ -73,6 +73,10 @@ class EpisodeLog:
     q_rad: list = field(default_factory=list)
     torso_xy_m: list = field(default_factory=list)
     completion_s: float | None = None
+    #: The arm's configuration and hand position before the first step (the per-step lists
+    #: start after it): the motion's ratios are measured from rest there.
+    q_start_rad: np.ndarray | None = None
+    p_ee_start_m: np.ndarray | None = None
 
 
 class HumanSeries:
@@ -105,6 +109,7 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=settings.ATTRACTION_LIMIT_M_S)
     log = EpisodeLog()
     end_point = path.point(path.length_m)
+    log.q_start_rad, log.p_ee_start_m = state.q.copy(), state.p_world_ee.copy()
     k, t = 0, 0.0
     while t < end_s:
         human = humans[k]
@@ -146,6 +151,9 @@ def episode_metrics(log: EpisodeLog, dt_s: float, controller) -> RunMetrics:
     model = arm.model.model
     q = np.asarray(log.q_rad, dtype=float).reshape(-1, model.nq)
     p_ee = np.asarray(log.p_ee_m, dtype=float).reshape(-1, 3)
+    if log.q_start_rad is not None:  # from rest where the run began, not after its first step
+        q = np.vstack((log.q_start_rad, q))
+        p_ee = np.vstack((log.p_ee_start_m, p_ee))
     ratios = motion_ratios(q, dt_s, arm.model.limits, lambda a, b: pin.difference(model, a, b), p_ee)
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
                        log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,
