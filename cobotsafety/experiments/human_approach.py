@@ -78,6 +78,11 @@ class EpisodeLog:
     q_start_rad: np.ndarray | None = None
     p_ee_start_m: np.ndarray | None = None
 
+    def commanded_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint path (n + 1, nq) [rad] and the hand's (n + 1, 3) [m] from the run's start."""
+        q = np.vstack((self.q_start_rad, np.asarray(self.q_rad, dtype=float).reshape(-1, len(self.q_start_rad))))
+        return q, np.vstack((self.p_ee_start_m, np.asarray(self.p_ee_m, dtype=float).reshape(-1, 3)))
+
 
 class HumanSeries:
     """The pipeline's human at control steps ``k`` (time ``start_s + k dt_s``), computed once and
@@ -149,11 +154,7 @@ def episode_metrics(log: EpisodeLog, dt_s: float, controller) -> RunMetrics:
 
     arm = controller.arm
     model = arm.model.model
-    q = np.asarray(log.q_rad, dtype=float).reshape(-1, model.nq)
-    p_ee = np.asarray(log.p_ee_m, dtype=float).reshape(-1, 3)
-    if log.q_start_rad is not None:  # from rest where the run began, not after its first step
-        q = np.vstack((log.q_start_rad, q))
-        p_ee = np.vstack((log.p_ee_start_m, p_ee))
+    q, p_ee = log.commanded_path()  # from rest where the run began, not after its first step
     ratios = motion_ratios(q, dt_s, arm.model.limits, lambda a, b: pin.difference(model, a, b), p_ee)
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
                        log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,

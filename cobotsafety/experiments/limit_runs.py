@@ -198,7 +198,7 @@ def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
         ratios = MotionRatios(m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
                               None, None, None, 0, None, None, m.max_ee_jerk_m_s3)
         runs.append(LimitRun(scenario, robot, dt_s, ratios, m.safety_over_smoothness_steps,
-                             np.vstack((run.log.q_start_rad, np.asarray(run.log.q_rad, dtype=float)))))
+                             run.log.commanded_path()[0]))
     return runs
 
 
