@@ -44,7 +44,7 @@ def test_releases_hold_within_the_limits():
     assert run.safety_over_smoothness_steps == 0
 
 
-def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys):
+def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys, tmp_path):
     from cobotsafety.cli import main
 
     def short(robot, dt_s):
@@ -52,8 +52,11 @@ def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, 
         return [_measure("drag-turns", c, drag_turns(c, dt_s, duration_s=0.5), dt_s)]
 
     monkeypatch.setattr(limit_runs, "scripted_runs", short)
-    assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--json"]) == 0
-    (row,) = json.loads(capsys.readouterr().out)
+    # With --out the plot's path goes to stderr: stdout stays one JSON document.
+    assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--json", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr()
+    (row,) = json.loads(printed.out)
+    assert str(tmp_path) in printed.err and list(tmp_path.glob("*.png"))
     assert set(row) == {"run", "robot", "dt_s", *KEYS}
     assert (row["run"], row["robot"], row["dt_s"]) == ("drag-turns", "panda", 0.001)
     assert isinstance(row["safety_over_smoothness_steps"], int)

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -260,5 +261,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         from cobotsafety.arm.controller import ArmController
 
-        print(f"wrote {plot(runs[0], ArmController(args.robot).model.limits, args.out)}")
+        # On stderr: with --json, stdout holds the JSON alone.
+        print(f"wrote {plot(runs[0], ArmController(args.robot).model.limits, args.out)}", file=sys.stderr)
     return 0
