@@ -76,6 +76,7 @@ def _beside_a_human(robot: str):
     controller.set_human(HumanCapsules(p0, p1, radius, names, v0_b_m_s=velocity, v1_b_m_s=velocity))
     v = np.array([0.0, 0.2, 0.0])
     for _ in range(1500):
+        controller.set_human(controller.human_frame)  # fresh each step (stale, the watchdog stops the arm)
         controller.step(v, DT_S)
     return controller, v
 
