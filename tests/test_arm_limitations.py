@@ -17,7 +17,7 @@ from cobotsafety.arm.limitations.registry import KINDS, UnsupportedLimitationErr
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.errors import CobotSafetyError
-from compiled_arm import compiled_distances, compiled_kinematics, compiled_rows, human_tuple, robot
+from compiled_arm import compiled_distances, compiled_kinematics, compiled_pulls, compiled_rows, human_tuple, robot
 from oracles import limitations as oracle
 from oracles.geometry import capsule_pair, segment_box
 from oracles.kinematics import Kinematics, random_configuration
@@ -141,7 +141,7 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
         size = kind_count(module.KIND, real, skip, n_caps, L, 1)
         assert size > 0, kind_type
         out = (np.empty(size), np.empty((size, model.nv)), np.empty(size), np.empty(size, dtype=np.bool_),
-               np.empty((size, 3), dtype=np.int64))
+               np.empty((size, 3), dtype=np.int64), np.zeros(size))
         before = np.full(size, np.nan)
         m = kind_rows(module.KIND, real, skip, 0, kin, hum, np.inf, out, 0, before)
         assert m == size, kind_type  # every distance is a row at an infinite activation distance
@@ -151,7 +151,8 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
         assert np.all(np.isfinite(values))
     unknown = max(m.KIND for m in KINDS.values()) + 1
     assert kind_count(unknown, np.zeros(12), 0, n_caps, L, 1) == -1
-    out = (np.empty(1), np.empty((1, model.nv)), np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 3), dtype=np.int64))
+    out = (np.empty(1), np.empty((1, model.nv)), np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 3), dtype=np.int64),
+           np.zeros(1))
     assert kind_rows(unknown, np.zeros(12), 0, 0, kin, hum, np.inf, out, 0, np.empty(1)) == -1
 
 
@@ -251,3 +252,40 @@ def test_the_extended_reachs_outward_drift_is_the_second_derivative_of_the_radiu
     p = real[0:3] + np.array([0.8, 0.0, 0.0])
     assert outward_drift(real, p, np.array([0.3, 0.0, 0.0])) == 0.0
     assert outward_drift(real, p, np.array([0.0, 0.4, 0.0])) == pytest.approx(0.16 / 0.8, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_each_kind_writes_its_own_curvature_pull_the_extended_reach_alone(name):
+    """The rows' ``pull`` at a random joint velocity: on the extended reach's row, the second
+    derivative of the hand's distance to the sphere's centre as it moves straight on at its
+    velocity now (finite differences of pinocchio's kinematics, independent of the compiled
+    Jacobian); zero on every other row (planes, joint limits, zones and people do not pull)."""
+    model = robot(name)
+    rng = np.random.default_rng(2000 + ROBOT_NAMES.index(name))
+    pulled = 0
+    for _ in range(10):
+        q = random_configuration(model.model, rng)
+        qdot = rng.normal(size=model.nv) * rng.uniform(0.1, 1.5)
+        kin_o = Kinematics(model, q)
+        limitations, human, ahead_s, activation = random_scene(model, kin_o, rng)
+        pack = pack_scene(limitations, model)
+        kin = compiled_kinematics(model, q, qdot)[0]
+        hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, ahead_s)
+        *_, tag, pull, _ = compiled_pulls(pack, model, kin, hum, np.inf)
+        h = 1e-6
+        v_hand = (Kinematics(model, pin.integrate(model.model, q, qdot * h)).p_ee
+                  - Kinematics(model, pin.integrate(model.model, q, -qdot * h)).p_ee) / (2.0 * h)
+        for (con, side, _), got in zip(tag, pull, strict=True):
+            lim = limitations[con]
+            if isinstance(lim, ReachLimits) and side == 1:
+                centre, t = np.array(lim.shoulder), 1e-3
+
+                def radius(t, centre=centre):
+                    return float(np.linalg.norm(kin_o.p_ee + v_hand * t - centre))
+
+                second = (radius(t) - 2.0 * radius(0.0) + radius(-t)) / (t * t)
+                assert got == pytest.approx(second, rel=1e-4, abs=1e-6)
+                pulled += got > 1e-3
+            else:
+                assert got == 0.0
+    assert pulled >= 5

@@ -54,7 +54,7 @@ from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTH
                                           LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.limitations import human as human_kind
-from cobotsafety.arm.limitations import joint_range, reach
+from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
@@ -89,7 +89,7 @@ EE_AXIS_SHARE = EE_MOTION_SHARE / math.sqrt(3.0)
 MOTION_MARGIN = 1.0 - 1e-4
 #: The least share of a row's deceleration a brake keeps when the limitation's curvature pulls
 #: the arm toward it (beyond it, the sliding is faster than the limits can hold on that curve).
-DRIFT_FLOOR = 0.25
+PULL_FLOOR = 0.25
 
 
 @numba.njit(cache=True)
@@ -254,7 +254,7 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, drift, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
+def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
                       dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
                       width_m, width_rad, speed_cap, ssm, ssm_params, plan, keep_plan, safety,
                       keep_safety):  # pragma: no cover - compiled
@@ -280,8 +280,8 @@ def limitation_bounds(dist, A, rate, angular, separation, drift, count, q0, qdot
     person, it must be able to stop for them. With SSM the arm's own approach to a human
     (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
     15066's speed for that separation. A retreat never asks for more than the speed cap. A
-    limitation whose curvature pulls the sliding arm toward it (``drift`` [m/s^2] > 0 at the
-    arm's velocity now: the extended reach) adds that pull to the approach's acceleration and
+    limitation whose curvature pulls the sliding arm toward it (``pull`` [m/s^2] > 0 at the
+    arm's velocity now, the kind's own: the extended reach) adds that pull to the approach's acceleration and
     takes it from the deceleration the brake has along the row."""
     nv = A.shape[1]
     worst_factor = 1.0
@@ -305,11 +305,11 @@ def limitation_bounds(dist, A, rate, angular, separation, drift, count, q0, qdot
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
-        if drift[i] > 0.0:
+        if pull[i] > 0.0:
             # The limitation's curvature pulls the arm toward it at its speed now: part of its
             # approach's acceleration, and held against by the brake while the arm slides on.
-            own_accel += drift[i]
-            decel = max(decel - drift[i], DRIFT_FLOOR * decel)
+            own_accel += pull[i]
+            decel = max(decel - pull[i], PULL_FLOOR * decel)
         keep_plan[i], keep_safety[i] = False, False
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
@@ -332,7 +332,7 @@ def limitation_bounds(dist, A, rate, angular, separation, drift, count, q0, qdot
         else:
             # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
             # the braking model starts from the rate the command gives and the pull on top)
-            speed_now = own_speed - drift[i] * dt_s + human_closing
+            speed_now = own_speed - pull[i] * dt_s + human_closing
             allowed, _ = safe_speed(gap, speed_now, own_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
             plan_bound = human_closing - allowed
             if allowed == np.inf:
@@ -430,7 +430,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     # ---- 1. kinematics and task --------------------------------------------------------------
     oR, op, p_ee, R_ee, J6, p0, p1 = kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t,
                                                 support, ee_joint, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, nv)
-    kin = (q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited)
+    kin = (q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot_prev)
     speed = np.sqrt(np.sum(v * v))
     if speed > speed_cap:
         v = v * (speed_cap / speed)
@@ -461,8 +461,9 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     n_before = before_start[n_lim]
     dist, A, rate = np.empty(max_lim_rows), np.empty((max_lim_rows, nv)), np.empty(max_lim_rows)
     angular, tag = np.empty(max_lim_rows, dtype=np.bool_), np.empty((max_lim_rows, 3), dtype=np.int64)
+    pull = np.zeros(max_lim_rows)  # the limitations' curvature pulls [m/s^2] (``limitations/rows.py``)
     before = np.empty(n_before)
-    out = (dist, A, rate, angular, tag)
+    out = (dist, A, rate, angular, tag, pull)
     # A person walking at the arm is watched from farther: their speed times the time the arm
     # needs to stand still from its motion now (every joint braked together, ramps included).
     walk_m = 0.0
@@ -533,11 +534,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     safe_keep = np.ones(m, dtype=np.bool_)
     ee_velocity_prev = matvec(J, qdot_prev)
     ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
-    drift = np.zeros(m)  # the approach acceleration each limitation's curvature adds [m/s^2]
-    for i in range(m):
-        if scene_i[tag[i, 0], 0] == reach.KIND and tag[i, 1] == 1:  # the extended side
-            drift[i] = reach.outward_drift(reals[tag[i, 0]], p_ee, ee_velocity_prev)
-    brake_factor = limitation_bounds(dist, A, rate, angular, separation, drift, m, q0, qdot_prev, qddot_prev,
+    brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, m, q0, qdot_prev, qddot_prev,
                                      ee_speed_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m,
                                      buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params,
                                      bounds, keep, safe_bounds, safe_keep)
@@ -662,7 +659,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
             net_scale = low
             break
         kin2 = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
-                limited)
+                limited, qdot_prev)
         admissible = True
         for con in range(n_lim):
             if not checked[con]:
@@ -697,7 +694,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     out_f[offsets[8]:offsets[9]] = v_executed
     robot_point, human_point = np.empty(3), np.empty(3)
     kin_next = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
-                limited)
+                limited, qdot_prev)
     out_f[offsets[9]] = human_kind.closest_pair(human_skip, kin_next, hum, robot_point, human_point)
     out_f[offsets[10]:offsets[11]] = robot_point
     out_f[offsets[11]:offsets[12]] = human_point

@@ -182,7 +182,7 @@ def segment_box(a, b, c, h, out_p, out_u):  # pragma: no cover - compiled
 def _clearance(real, skip, kin, c, exact_below, pa, u):  # pragma: no cover - compiled
     """Capsule ``c``'s clearance [m]: exact below ``exact_below``, else the sphere's lower
     bound; whether it is exact."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     pb = np.empty(3)
     bound = capsule_pair(p0[c], p1[c], radius[c], real[0:3], real[0:3], real[6], pa, pb)
     if bound >= exact_below:
@@ -200,8 +200,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     pa, u = np.empty(3), np.empty(3)
     for i in range(p0.shape[0] - skip):
         c = skip + i

@@ -63,7 +63,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
 
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     pa, pb = np.empty(3), np.empty(3)
     for i in range(p0.shape[0] - skip):
         c = skip + i
@@ -72,8 +72,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
     for i in range(p0.shape[0] - skip):
         c = skip + i

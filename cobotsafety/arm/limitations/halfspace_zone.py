@@ -55,7 +55,7 @@ def _heights(real, p0, p1, c):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     for i in range(p0.shape[0] - skip):
         s0, s1 = _heights(real, p0, p1, skip + i)
         out[2 * i], out[2 * i + 1] = -s0 - radius[skip + i], -s1 - radius[skip + i]
@@ -63,8 +63,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     away = -real[3:6]
     for i in range(p0.shape[0] - skip):
         c = skip + i

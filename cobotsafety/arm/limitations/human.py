@@ -77,7 +77,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """``distance - critical`` of every pair, robot-major, into ``out``."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
     pa, pb = np.empty(3), np.empty(3)
     k = hr.shape[0]
@@ -91,9 +91,9 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     """The pairs within ``activation_m`` (the limitation's own ``real[1]``, or farther for a
     person walking at the arm: see ``arm_step``)."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    dist, A, rate, angular, tag = out
+    dist, A, rate, angular, tag, pull = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
     k = hr.shape[0]
     for i in range(p0.shape[0] - skip):
@@ -130,7 +130,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
 def closest_pair(skip, kin, human, out_robot, out_human):  # pragma: no cover - compiled
     """The smallest robot-human capsule distance [m] (inf without a human) and its witness
     points on the two capsules' surfaces into ``out_robot``, ``out_human`` (3,) (NaN without)."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
     pa, pb = np.empty(3), np.empty(3)
     best = np.inf

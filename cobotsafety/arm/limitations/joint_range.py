@@ -40,7 +40,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """Distances [rad] into ``out`` (2L,)."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     L = limited.shape[0]
     for i in range(L):
         iq = limited[i, 0]
@@ -51,8 +51,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     """Both rows of every limited joint (always active: the filter's braking bound decides)."""
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     L = limited.shape[0]
     for side in range(2):
         for i in range(L):

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from cobotsafety.small_linalg import matvec
+
 KIND = 1
 ANGULAR = False
 
@@ -63,15 +65,15 @@ def outward_drift(real, p_ee, v):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     r, _, _, _ = _radius(real, p_ee)
     out[0], out[1] = r - real[3], real[4] - r
 
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     r, ox, oy, oz = _radius(real, p_ee)
     if r > 1e-12:
         ux, uy, uz = ox / r, oy / r, oz / r
@@ -87,6 +89,8 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
         for col in range(A.shape[1]):
             A[m, col] = sign * (ux * J6[0, col] + uy * J6[1, col] + uz * J6[2, col])
         rate[m], angular[m] = 0.0, False
+        if side == 1:  # the sphere curves toward the sliding hand on its outside only
+            pull[m] = outward_drift(real, p_ee, matvec(J6[:3], qdot))
         tag[m, 0], tag[m, 1], tag[m, 2] = con, side, 0
         m += 1
     return m

@@ -3,8 +3,11 @@
 ``kin`` is the robot's kinematics at the state the rows are taken at, one tuple:
 ``(q (nq,), p_ee (3,), J6 (6, nv), oR (nj, 3, 3), op (nj, 3), p0 (c, 3), p1 (c, 3), radius (c,),
 cap_joint (c,), axes (nj, 3), idx_v (nj,), support (nj, nj), lower (nq,), upper (nq,),
-limited (L, 2))``; ``human`` is ``(p0 (h, 3), p1 (h, 3), radius (h,), v0 (h, 3), v1 (h, 3))``;
-``out`` is ``(dist (M,), A (M, nv), rate (M,), angular (M,), tag (M, 3))``, filled from row ``m``.
+limited (L, 2), qdot (nv,))``, ``qdot`` the joint velocity the arm moves with into the step;
+``human`` is ``(p0 (h, 3), p1 (h, 3), radius (h,), v0 (h, 3), v1 (h, 3))``; ``out`` is
+``(dist (M,), A (M, nv), rate (M,), angular (M,), tag (M, 3), pull (M,))``, filled from row ``m``:
+``pull`` [m/s^2] (zero unless the kind writes it) is how fast the limitation's curvature pulls
+the arm, moving at ``qdot`` with no acceleration of its own, toward it along the row.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
 
 @numba.njit(cache=True)
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     for i in range(p0.shape[0] - skip):
         c = skip + i
         out[2 * i], out[2 * i + 1] = p0[c, 2] - radius[c] - real[0], p1[c, 2] - radius[c] - real[0]
@@ -52,8 +52,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
-    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited = kin
-    dist, A, rate, angular, tag = out
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull = out
     up = np.array([0.0, 0.0, 1.0])
     for i in range(p0.shape[0] - skip):
         c = skip + i
