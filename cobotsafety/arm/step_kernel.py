@@ -58,7 +58,7 @@ from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
-from cobotsafety.geometry.capsule import capsule_pair
+from cobotsafety.geometry.capsule import capsule_pair_rows
 from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
@@ -184,7 +184,7 @@ def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover 
     pa, pb = np.empty(3), np.empty(3)
     for c in range(skip, p0.shape[0]):
         for h in range(hr.shape[0]):
-            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
             if d < best:
                 best, capsule = d, c
                 pr[:] = pa

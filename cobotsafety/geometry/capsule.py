@@ -68,11 +68,26 @@ def _refined_line_points(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, a, b, c, e, f
 @numba.njit(cache=True, inline="always")
 def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover - compiled
     """One pair: end points (3,), radii in; the distance [m] out, the axes' closest points into
-    ``point_a``, ``point_b`` (3,). The one implementation ``capsule_distance`` and the arm's
-    compiled step both run."""
-    a0x, a0y, a0z, b0x, b0y, b0z = a0[0], a0[1], a0[2], b0[0], b0[1], b0[2]
-    d1x, d1y, d1z = a1[0] - a0x, a1[1] - a0y, a1[2] - a0z
-    d2x, d2y, d2z = b1[0] - b0x, b1[1] - b0y, b1[2] - b0z
+    ``point_a``, ``point_b`` (3,). The one implementation (``_pair``) that ``capsule_distance``
+    and the arm's compiled step run."""
+    return _pair(a0[0], a0[1], a0[2], a1[0], a1[1], a1[2], ra, b0[0], b0[1], b0[2], b1[0], b1[1], b1[2], rb,
+                 point_a, point_b)
+
+
+@numba.njit(cache=True, inline="always")
+def capsule_pair_rows(a0, a1, i, ra, b0, b1, j, rb, point_a, point_b):  # pragma: no cover - compiled
+    """``capsule_pair`` of capsule ``i`` of ``a0``, ``a1`` (n, 3) and capsule ``j`` of ``b0``,
+    ``b1`` (k, 3), read in place: a loop over pairs makes no array views (in the compiled step
+    each view costs two atomic reference counts)."""
+    return _pair(a0[i, 0], a0[i, 1], a0[i, 2], a1[i, 0], a1[i, 1], a1[i, 2], ra, b0[j, 0], b0[j, 1], b0[j, 2],
+                 b1[j, 0], b1[j, 1], b1[j, 2], rb, point_a, point_b)
+
+
+@numba.njit(cache=True, inline="always")
+def _pair(a0x, a0y, a0z, a1x, a1y, a1z, ra, b0x, b0y, b0z, b1x, b1y, b1z, rb, point_a, point_b):  # pragma: no cover
+    """``capsule_pair`` on the end points' coordinates."""
+    d1x, d1y, d1z = a1x - a0x, a1y - a0y, a1z - a0z
+    d2x, d2y, d2z = b1x - b0x, b1y - b0y, b1z - b0z
     rx, ry, rz = a0x - b0x, a0y - b0y, a0z - b0z
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z

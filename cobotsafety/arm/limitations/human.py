@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from cobotsafety.arm.kinematics import point_jacobian_row
-from cobotsafety.geometry.capsule import capsule_pair
+from cobotsafety.geometry.capsule import capsule_pair_rows
 
 KIND = 6
 ANGULAR = False
@@ -84,7 +84,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     for i in range(p0.shape[0] - skip):
         c = skip + i
         for h in range(k):
-            out[i * k + h] = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb) - real[0]
+            out[i * k + h] = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb) - real[0]
 
 
 @numba.njit(cache=True)
@@ -99,7 +99,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     for i in range(p0.shape[0] - skip):
         c = skip + i
         for h in range(k):
-            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
             before[i * k + h] = d - real[0]
             if d >= activation_m:
                 continue
@@ -138,7 +138,7 @@ def closest_pair(skip, kin, human, out_robot, out_human):  # pragma: no cover - 
     out_human[:] = np.nan
     for c in range(skip, p0.shape[0]):
         for h in range(hr.shape[0]):
-            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
             if d < best:
                 best = d
                 gx, gy, gz = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
