@@ -58,7 +58,7 @@ from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
-from cobotsafety.geometry.capsule import capsule_pair_rows
+from cobotsafety.geometry.capsule import all_pairs
 from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
@@ -181,14 +181,16 @@ def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover 
     axis point)`` (-1 and NaN points without a human)."""
     best, capsule = np.inf, -1
     pr, ph = np.full(3, np.nan), np.full(3, np.nan)
-    pa, pb = np.empty(3), np.empty(3)
-    for c in range(skip, p0.shape[0]):
-        for h in range(hr.shape[0]):
-            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
-            if d < best:
-                best, capsule = d, c
-                pr[:] = pa
-                ph[:] = pb
+    k = hr.shape[0]
+    n = max(p0.shape[0] - skip, 0)
+    ds, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
+    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pa, pb)
+    for i in range(n):
+        for h in range(k):
+            if ds[i, h] < best:
+                best, capsule = ds[i, h], skip + i
+                for r in range(3):
+                    pr[r], ph[r] = pa[i, h, r], pb[i, h, r]
     return best, capsule, pr, ph
 
 
@@ -468,7 +470,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     # needs to stand still from its motion now (every joint braked together, ramps included).
     walk_m = 0.0
     for h in range(n_human):
-        walk_m = max(walk_m, np.sqrt(np.sum(hv0[h] * hv0[h])), np.sqrt(np.sum(hv1[h] * hv1[h])))
+        walk_m = max(walk_m, np.sqrt(hv0[h, 0] ** 2 + hv0[h, 1] ** 2 + hv0[h, 2] ** 2),
+                     np.sqrt(hv1[h, 0] ** 2 + hv1[h, 1] ** 2 + hv1[h, 2] ** 2))
     if walk_m > 0.0:
         walk_m *= arm_stop_time(qdot_prev, qddot_prev, u_prev, acc, jerk, EE_AXIS_SHARE * ee_acc,
                                 EE_AXIS_SHARE * ee_jerk, dt_s)
@@ -584,12 +587,15 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
                 safety = -approach_speed_kernel(separation[i], ssm_params)  # its SSM layer only
                 with_plan, with_safety = False, True
             row = row_code(tag[i, 0], tag[i, 1], tag[i, 2])
+            # (element by element: a row view costs two atomic reference counts, per row)
             if with_safety:
-                N[count] = A[i]
+                for j in range(nv):
+                    N[count, j] = A[i, j]
                 b[count], group[count], code[count] = safety, LIMITATION, row
                 count += 1
             if with_plan and (plan > safety or not with_safety):
-                N[count] = A[i]
+                for j in range(nv):
+                    N[count, j] = A[i, j]
                 b[count], group[count], code[count] = plan, PLAN, row
                 count += 1
     for j in range(nv):
@@ -618,7 +624,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     for r in range(3):
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
-            N[count] = sign * J[r]
+            for j in range(nv):
+                N[count, j] = sign * J[r, j]
             b[count], group[count] = (ee_lo[r] if side == 0 else -ee_hi[r]), MOTION
             code[count] = row_code(OWNER_EE_MOTION, r, side)
             count += 1

@@ -70,22 +70,30 @@ def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover 
     """One pair: end points (3,), radii in; the distance [m] out, the axes' closest points into
     ``point_a``, ``point_b`` (3,). The one implementation (``_pair``) that ``capsule_distance``
     and the arm's compiled step run."""
-    return _pair(a0[0], a0[1], a0[2], a1[0], a1[1], a1[2], ra, b0[0], b0[1], b0[2], b1[0], b1[1], b1[2], rb,
-                 point_a, point_b)
+    d, point_a[0], point_a[1], point_a[2], point_b[0], point_b[1], point_b[2] = _pair(
+        a0[0], a0[1], a0[2], a1[0], a1[1], a1[2], ra, b0[0], b0[1], b0[2], b1[0], b1[1], b1[2], rb)
+    return d
+
+
+@numba.njit(cache=True)
+def all_pairs(a0, a1, ra, first, b0, b1, rb, distance, point_a, point_b):  # pragma: no cover - compiled
+    """Every pair of capsules ``first..n-1`` of ``a0``, ``a1`` (n, 3), ``ra`` (n,) and every
+    capsule of ``b0``, ``b1`` (k, 3), ``rb`` (k,): distances into ``distance`` (n - first, k),
+    the axes' closest points into ``point_a``, ``point_b`` (n - first, k, 3). One call for the
+    whole loop, on scalars inside: in compiled code each array view or array handed to an
+    inlined function costs two atomic reference counts, per pair."""
+    for i in range(first, a0.shape[0]):
+        for j in range(b0.shape[0]):
+            r = i - first
+            (distance[r, j], point_a[r, j, 0], point_a[r, j, 1], point_a[r, j, 2], point_b[r, j, 0], point_b[r, j, 1],
+             point_b[r, j, 2]) = _pair(a0[i, 0], a0[i, 1], a0[i, 2], a1[i, 0], a1[i, 1], a1[i, 2], ra[i], b0[j, 0],
+                                       b0[j, 1], b0[j, 2], b1[j, 0], b1[j, 1], b1[j, 2], rb[j])
 
 
 @numba.njit(cache=True, inline="always")
-def capsule_pair_rows(a0, a1, i, ra, b0, b1, j, rb, point_a, point_b):  # pragma: no cover - compiled
-    """``capsule_pair`` of capsule ``i`` of ``a0``, ``a1`` (n, 3) and capsule ``j`` of ``b0``,
-    ``b1`` (k, 3), read in place: a loop over pairs makes no array views (in the compiled step
-    each view costs two atomic reference counts)."""
-    return _pair(a0[i, 0], a0[i, 1], a0[i, 2], a1[i, 0], a1[i, 1], a1[i, 2], ra, b0[j, 0], b0[j, 1], b0[j, 2],
-                 b1[j, 0], b1[j, 1], b1[j, 2], rb, point_a, point_b)
-
-
-@numba.njit(cache=True, inline="always")
-def _pair(a0x, a0y, a0z, a1x, a1y, a1z, ra, b0x, b0y, b0z, b1x, b1y, b1z, rb, point_a, point_b):  # pragma: no cover
-    """``capsule_pair`` on the end points' coordinates."""
+def _pair(a0x, a0y, a0z, a1x, a1y, a1z, ra, b0x, b0y, b0z, b1x, b1y, b1z, rb):  # pragma: no cover - compiled
+    """``capsule_pair`` on the end points' coordinates: ``(distance, point_a (3 floats),
+    point_b (3 floats))``."""
     d1x, d1y, d1z = a1x - a0x, a1y - a0y, a1z - a0z
     d2x, d2y, d2z = b1x - b0x, b1y - b0y, b1z - b0z
     rx, ry, rz = a0x - b0x, a0y - b0y, a0z - b0z
@@ -130,10 +138,10 @@ def _pair(a0x, a0y, a0z, a1x, a1y, a1z, ra, b0x, b0y, b0z, b1x, b1y, b1z, rb, po
                 g = _gap2(rx, ry, rz, d1x, d1y, d1z, d2x, d2y, d2z, s_end, end)
                 if g < best:
                     best, s, t = g, s_end, end
-    point_a[0], point_a[1], point_a[2] = a0x + s * d1x, a0y + s * d1y, a0z + s * d1z
-    point_b[0], point_b[1], point_b[2] = b0x + t * d2x, b0y + t * d2y, b0z + t * d2z
-    gx, gy, gz = point_a[0] - point_b[0], point_a[1] - point_b[1], point_a[2] - point_b[2]
-    return np.sqrt(gx * gx + gy * gy + gz * gz) - ra - rb
+    pax, pay, paz = a0x + s * d1x, a0y + s * d1y, a0z + s * d1z
+    pbx, pby, pbz = b0x + t * d2x, b0y + t * d2y, b0z + t * d2z
+    gx, gy, gz = pax - pbx, pay - pby, paz - pbz
+    return np.sqrt(gx * gx + gy * gy + gz * gz) - ra - rb, pax, pay, paz, pbx, pby, pbz
 
 
 @numba.njit(cache=True)

@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from cobotsafety.arm.kinematics import point_jacobian_row
-from cobotsafety.geometry.capsule import capsule_pair_rows
+from cobotsafety.geometry.capsule import all_pairs
 
 KIND = 6
 ANGULAR = False
@@ -79,12 +79,13 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """``distance - critical`` of every pair, robot-major, into ``out``."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    pa, pb = np.empty(3), np.empty(3)
     k = hr.shape[0]
-    for i in range(p0.shape[0] - skip):
-        c = skip + i
+    n = max(p0.shape[0] - skip, 0)
+    d, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
+    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, d, pa, pb)
+    for i in range(n):
         for h in range(k):
-            out[i * k + h] = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb) - real[0]
+            out[i * k + h] = d[i, h] - real[0]
 
 
 @numba.njit(cache=True)
@@ -96,13 +97,18 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     dist, A, rate, angular, tag, pull = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
     k = hr.shape[0]
-    for i in range(p0.shape[0] - skip):
+    n = max(p0.shape[0] - skip, 0)
+    ds, pas, pbs = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
+    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pas, pbs)
+    for i in range(n):
         c = skip + i
         for h in range(k):
-            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
+            d = ds[i, h]
             before[i * k + h] = d - real[0]
             if d >= activation_m:
                 continue
+            for r in range(3):
+                pa[r], pb[r] = pas[i, h, r], pbs[i, h, r]
             gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
             norm = np.sqrt(gx * gx + gy * gy + gz * gz)
             if norm > 1e-9:
@@ -132,19 +138,23 @@ def closest_pair(skip, kin, human, out_robot, out_human):  # pragma: no cover - 
     points on the two capsules' surfaces into ``out_robot``, ``out_human`` (3,) (NaN without)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    pa, pb = np.empty(3), np.empty(3)
     best = np.inf
     out_robot[:] = np.nan
     out_human[:] = np.nan
-    for c in range(skip, p0.shape[0]):
-        for h in range(hr.shape[0]):
-            d = capsule_pair_rows(p0, p1, c, radius[c], hp0, hp1, h, hr[h], pa, pb)
-            if d < best:
-                best = d
-                gx, gy, gz = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+    k = hr.shape[0]
+    n = max(p0.shape[0] - skip, 0)
+    ds, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
+    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pa, pb)
+    for i in range(n):
+        c = skip + i
+        for h in range(k):
+            if ds[i, h] < best:
+                best = ds[i, h]
+                gx, gy, gz = pb[i, h, 0] - pa[i, h, 0], pb[i, h, 1] - pa[i, h, 1], pb[i, h, 2] - pa[i, h, 2]
                 norm = np.sqrt(gx * gx + gy * gy + gz * gz)
                 ux, uy, uz = (gx / norm, gy / norm, gz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
-                out_robot[0], out_robot[1], out_robot[2] = pa[0] + ux * radius[c], pa[1] + uy * radius[c], \
-                    pa[2] + uz * radius[c]
-                out_human[0], out_human[1], out_human[2] = pb[0] - ux * hr[h], pb[1] - uy * hr[h], pb[2] - uz * hr[h]
+                out_robot[0], out_robot[1], out_robot[2] = pa[i, h, 0] + ux * radius[c], pa[i, h, 1] + uy * radius[c], \
+                    pa[i, h, 2] + uz * radius[c]
+                out_human[0], out_human[1], out_human[2] = pb[i, h, 0] - ux * hr[h], pb[i, h, 1] - uy * hr[h], \
+                    pb[i, h, 2] - uz * hr[h]
     return best
