@@ -38,22 +38,27 @@ RELAXATION_COMMAND_WEIGHT = 1e-2
 
 
 @numba.njit(cache=True)
-def _cholesky_solve(K, na, rhs):  # pragma: no cover - compiled (runs as Python without JIT)
-    """Solve ``K[:na, :na] y = rhs[:na]`` (symmetric positive definite) by Cholesky; ``None``
-    when a pivot is not positive (dependent rows)."""
-    L = np.zeros((na, na))
-    for i in range(na):
+def _factor_rows(K, L, start, na):  # pragma: no cover - compiled (runs as Python without JIT)
+    """Rows ``start..na-1`` of the Cholesky factor ``L`` of ``K[:na, :na]`` (symmetric positive
+    definite; the rows above ``start`` are kept: row ``i`` depends on rows ``<= i`` only).
+    False when a pivot is not positive (dependent rows)."""
+    for i in range(start, na):
         for j in range(i + 1):
             s = K[i, j]
             for k in range(j):
                 s -= L[i, k] * L[j, k]
             if i == j:
                 if s <= 1e-300:
-                    return None
+                    return False
                 L[i, i] = np.sqrt(s)
             else:
                 L[i, j] = s / L[j, j]
-    y = np.empty(na)
+    return True
+
+
+@numba.njit(cache=True)
+def _solve_factor(L, na, rhs, y):  # pragma: no cover - compiled
+    """``y[:na]`` with ``L L^T y = rhs[:na]`` (forward, then back substitution, in place)."""
     for i in range(na):
         s = rhs[i]
         for k in range(i):
@@ -64,62 +69,53 @@ def _cholesky_solve(K, na, rhs):  # pragma: no cover - compiled (runs as Python 
         for k in range(i + 1, na):
             s -= L[k, i] * y[k]
         y[i] = s / L[i, i]
-    return y
 
 
 @numba.njit(cache=True)
-def _direction(G, active, na, p, z, r):  # pragma: no cover - compiled
+def _direction(G, active, na, p, L, z, r, dots):  # pragma: no cover - compiled
     """The primal step ``z`` (n,): row ``p``'s normal minus its part in the active rows' span,
-    and the multipliers' rates ``r`` (na,) (``g_p = G_A^T r + z``). Returns ``||z||^2`` and
-    whether the active Gram matrix was regular."""
+    the multipliers' rates ``r`` (na,) (``g_p = G_A^T r + z``) and row ``p``'s products with the
+    active rows ``dots`` (na,), from the Cholesky factor ``L`` of the active rows' Gram matrix.
+    Returns ``||z||^2``."""
     n = G.shape[1]
     for k in range(n):
         z[k] = G[p, k]
-    if na == 0:
-        s = 0.0
-        for k in range(n):
-            s += z[k] * z[k]
-        return s, True
-    K = np.empty((na, na))
-    rhs = np.empty(na)
     for a in range(na):
         ia = active[a]
-        for b in range(a + 1):
-            ib = active[b]
-            s = 0.0
-            for k in range(n):
-                s += G[ia, k] * G[ib, k]
-            K[a, b] = s
-            K[b, a] = s
         s = 0.0
         for k in range(n):
             s += G[ia, k] * G[p, k]
-        rhs[a] = s
-    y = _cholesky_solve(K, na, rhs)
-    if y is None:
-        return 0.0, False
+        dots[a] = s
+    _solve_factor(L, na, dots, r)
     for a in range(na):
-        r[a] = y[a]
         ia = active[a]
         for k in range(n):
-            z[k] -= y[a] * G[ia, k]
+            z[k] -= r[a] * G[ia, k]
     s = 0.0
     for k in range(n):
         s += z[k] * z[k]
-    return s, True
+    return s
 
 
 @numba.njit(cache=True)
 def _dual_active_set(G, h, tol):  # pragma: no cover - compiled
     """``argmin ||x|| s.t. G x >= h`` for unit rows ``G`` (m, n): ``(x, ok)``; ``ok`` False
-    when the rows contradict each other (or the active set degenerated)."""
+    when the rows contradict each other (or the active set degenerated).
+
+    The active rows' Gram matrix ``K`` is kept (a row entering adds the products its step
+    computed) and so is its Cholesky factor ``L``: rows ``< factored`` are valid, a row entering
+    adds one, a row leaving invalidates the rows from its place on."""
     m, n = G.shape
     x = np.zeros(n)
     lam = np.zeros(m)
     active = np.empty(n + 1, dtype=np.int64)
     na = 0
+    factored = 0
+    K = np.empty((n + 1, n + 1))
+    L = np.empty((n + 1, n + 1))
     z = np.empty(n)
     r = np.empty(n + 1)
+    dots = np.empty(n + 1)
     slack = np.empty(m)
     for _ in range(10 * (m + n) + 10):
         p = -1
@@ -134,22 +130,17 @@ def _dual_active_set(G, h, tol):  # pragma: no cover - compiled
         if p < 0:
             if na > 0:
                 # Polish: the active rows' equations solved directly (no accumulated rounding).
-                K = np.empty((na, na))
-                rhs = np.empty(na)
+                y = np.empty(na)
                 for a in range(na):
-                    for b in range(na):
-                        s = 0.0
-                        for k in range(n):
-                            s += G[active[a], k] * G[active[b], k]
-                        K[a, b] = s
-                    rhs[a] = h[active[a]]
-                y = _cholesky_solve(K, na, rhs)
-                if y is not None and np.all(y >= 0.0):
+                    dots[a] = h[active[a]]
+                ok = factored == na or _factor_rows(K, L, factored, na)
+                if ok:
+                    _solve_factor(L, na, dots, y)
+                if ok and np.all(y >= 0.0):
                     polished = np.zeros(n)
                     for a in range(na):
                         for k in range(n):
                             polished[k] += y[a] * G[active[a], k]
-                    ok = True
                     for i in range(m):
                         s = -h[i]
                         for k in range(n):
@@ -162,9 +153,11 @@ def _dual_active_set(G, h, tol):  # pragma: no cover - compiled
             return x, True
         s_p = slack[p]
         while True:
-            zz, regular = _direction(G, active, na, p, z, r)
-            if not regular:
-                return x, False
+            if factored < na:
+                if not _factor_rows(K, L, factored, na):
+                    return x, False
+                factored = na
+            zz = _direction(G, active, na, p, L, z, r, dots)
             # n active rows span every direction: row p is in their span (its ``z`` is rounding
             # only) and takes a partial step; a full one would add an (n+1)-th active row.
             t_full = -s_p / zz if zz > 1e-24 and na < n else np.inf
@@ -185,13 +178,28 @@ def _dual_active_set(G, h, tol):  # pragma: no cover - compiled
             lam[p] += t
             s_p += t * zz
             if t_full <= t_partial:
+                # Row p enters: its products with the active rows (``dots``) and with itself
+                # complete the Gram matrix; its factor row is computed when next needed.
+                for b in range(na):
+                    K[na, b] = dots[b]
+                    K[b, na] = dots[b]
+                s = 0.0
+                for k in range(n):
+                    s += G[p, k] * G[p, k]
+                K[na, na] = s
                 active[na] = p
                 na += 1
                 break
             lam[active[drop]] = 0.0
             for a in range(drop, na - 1):
                 active[a] = active[a + 1]
+                for b in range(na):
+                    K[a, b] = K[a + 1, b]
+            for b in range(drop, na - 1):
+                for a in range(na - 1):
+                    K[a, b] = K[a, b + 1]
             na -= 1
+            factored = min(factored, drop)
     return x, False
 
 
