@@ -276,3 +276,22 @@ def test_values_up_to_the_bound_give_finite_results():
     edge = np.full(3, MAX_ABS_M)
     d, _, _ = capsule_distance(edge, -edge, MAX_ABS_M, -edge, edge, MAX_ABS_M)
     assert np.isfinite(d)
+
+
+def test_all_pairs_equals_the_broadcast_batch_from_its_first_capsule_on():
+    """``all_pairs`` (the arm step's robot-human loop) gives what ``capsule_distance`` gives
+    for the same pairs, to the bit (one implementation), from robot capsule ``first`` on;
+    none when ``first`` is past the last capsule."""
+    from cobotsafety.geometry.capsule import all_pairs
+
+    rng = np.random.default_rng(41)
+    for first in (0, 2, 7):
+        a0, a1 = rng.normal(size=(2, 7, 3))
+        b0, b1 = rng.normal(size=(2, 5, 3))
+        ra, rb = rng.uniform(0.02, 0.2, 7), rng.uniform(0.05, 0.3, 5)
+        b1[3] = b0[3]  # a point capsule among them
+        d, pa, pb = all_pairs(a0, a1, ra, first, b0, b1, rb)
+        expected = capsule_distance(a0[first:, None], a1[first:, None], ra[first:, None], b0[None], b1[None], rb[None])
+        assert d.shape == (7 - first, 5) and pa.shape == pb.shape == (7 - first, 5, 3)
+        for got, want in zip((d, pa, pb), expected, strict=True):
+            np.testing.assert_array_equal(got, want)

@@ -58,7 +58,6 @@ from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
-from cobotsafety.geometry.capsule import all_pairs
 from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
@@ -173,25 +172,6 @@ def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, s
             p0[k, r] = op[j, r] + oR[j, r, 0] * cap_p0l[k, 0] + oR[j, r, 1] * cap_p0l[k, 1] + oR[j, r, 2] * cap_p0l[k, 2]
             p1[k, r] = op[j, r] + oR[j, r, 0] * cap_p1l[k, 0] + oR[j, r, 1] * cap_p1l[k, 1] + oR[j, r, 2] * cap_p1l[k, 2]
     return oR, op, p_ee, R_ee, J6, p0, p1
-
-
-@numba.njit(cache=True)
-def _closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover - compiled
-    """The closest robot-human pair: ``(distance [m], robot capsule, robot axis point, human
-    axis point)`` (-1 and NaN points without a human)."""
-    best, capsule = np.inf, -1
-    pr, ph = np.full(3, np.nan), np.full(3, np.nan)
-    k = hr.shape[0]
-    n = max(p0.shape[0] - skip, 0)
-    ds, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
-    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pa, pb)
-    for i in range(n):
-        for h in range(k):
-            if ds[i, h] < best:
-                best, capsule = ds[i, h], skip + i
-                for r in range(3):
-                    pr[r], ph[r] = pa[i, h, r], pb[i, h, r]
-    return best, capsule, pr, ph
 
 
 @numba.njit(cache=True)
@@ -503,7 +483,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     evading = False
     evades = strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0
     if evades or strategy == REACTIVE:
-        d_min, capsule, pr, ph = _closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
+        d_min, capsule, _, pr, ph = human_kind.closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
     if evades:
         # Next to a person the command is the user's plus paper 2's repulsion at the arm's
         # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the

@@ -76,18 +76,21 @@ def capsule_pair(a0, a1, ra, b0, b1, rb, point_a, point_b):  # pragma: no cover 
 
 
 @numba.njit(cache=True)
-def all_pairs(a0, a1, ra, first, b0, b1, rb, distance, point_a, point_b):  # pragma: no cover - compiled
+def all_pairs(a0, a1, ra, first, b0, b1, rb):  # pragma: no cover - compiled
     """Every pair of capsules ``first..n-1`` of ``a0``, ``a1`` (n, 3), ``ra`` (n,) and every
-    capsule of ``b0``, ``b1`` (k, 3), ``rb`` (k,): distances into ``distance`` (n - first, k),
-    the axes' closest points into ``point_a``, ``point_b`` (n - first, k, 3). One call for the
-    whole loop, on scalars inside: in compiled code each array view or array handed to an
-    inlined function costs two atomic reference counts, per pair."""
-    for i in range(first, a0.shape[0]):
-        for j in range(b0.shape[0]):
-            r = i - first
+    capsule of ``b0``, ``b1`` (k, 3), ``rb`` (k,): ``(distance (n - first, k), point_a,
+    point_b (n - first, k, 3))``, the axes' closest points. One call for the whole loop, on
+    scalars inside: in compiled code each array view or array handed to an inlined function
+    costs two atomic reference counts, per pair."""
+    n, k = max(a0.shape[0] - first, 0), b0.shape[0]
+    distance, point_a, point_b = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
+    for r in range(n):
+        i = first + r
+        for j in range(k):
             (distance[r, j], point_a[r, j, 0], point_a[r, j, 1], point_a[r, j, 2], point_b[r, j, 0], point_b[r, j, 1],
              point_b[r, j, 2]) = _pair(a0[i, 0], a0[i, 1], a0[i, 2], a1[i, 0], a1[i, 1], a1[i, 2], ra[i], b0[j, 0],
                                        b0[j, 1], b0[j, 2], b1[j, 0], b1[j, 1], b1[j, 2], rb[j])
+    return distance, point_a, point_b
 
 
 @numba.njit(cache=True, inline="always")

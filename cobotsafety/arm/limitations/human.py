@@ -79,10 +79,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """``distance - critical`` of every pair, robot-major, into ``out``."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    k = hr.shape[0]
-    n = max(p0.shape[0] - skip, 0)
-    d, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
-    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, d, pa, pb)
+    d, _, _ = all_pairs(p0, p1, radius, skip, hp0, hp1, hr)
+    n, k = d.shape
     for i in range(n):
         for h in range(k):
             out[i * k + h] = d[i, h] - real[0]
@@ -96,10 +94,8 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     hp0, hp1, hr, hv0, hv1 = human
     dist, A, rate, angular, tag, pull = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
-    k = hr.shape[0]
-    n = max(p0.shape[0] - skip, 0)
-    ds, pas, pbs = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
-    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pas, pbs)
+    ds, pas, pbs = all_pairs(p0, p1, radius, skip, hp0, hp1, hr)
+    n, k = ds.shape
     for i in range(n):
         c = skip + i
         for h in range(k):
@@ -133,28 +129,36 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
 
 
 @numba.njit(cache=True)
+def closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover - compiled
+    """The closest robot-human pair (robot capsules from ``skip`` on): ``(distance [m], robot
+    capsule, human capsule, robot axis point, human axis point)`` (-1 and NaN points without
+    a human)."""
+    best, capsule, person = np.inf, -1, -1
+    pr, ph = np.full(3, np.nan), np.full(3, np.nan)
+    ds, pa, pb = all_pairs(p0, p1, radius, skip, hp0, hp1, hr)
+    n, k = ds.shape
+    for i in range(n):
+        for h in range(k):
+            if ds[i, h] < best:
+                best, capsule, person = ds[i, h], skip + i, h
+                for r in range(3):
+                    pr[r], ph[r] = pa[i, h, r], pb[i, h, r]
+    return best, capsule, person, pr, ph
+
+
+@numba.njit(cache=True)
 def closest_pair(skip, kin, human, out_robot, out_human):  # pragma: no cover - compiled
     """The smallest robot-human capsule distance [m] (inf without a human) and its witness
     points on the two capsules' surfaces into ``out_robot``, ``out_human`` (3,) (NaN without)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    best = np.inf
+    best, c, h, pa, pb = closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr)
     out_robot[:] = np.nan
     out_human[:] = np.nan
-    k = hr.shape[0]
-    n = max(p0.shape[0] - skip, 0)
-    ds, pa, pb = np.empty((n, k)), np.empty((n, k, 3)), np.empty((n, k, 3))
-    all_pairs(p0, p1, radius, skip, hp0, hp1, hr, ds, pa, pb)
-    for i in range(n):
-        c = skip + i
-        for h in range(k):
-            if ds[i, h] < best:
-                best = ds[i, h]
-                gx, gy, gz = pb[i, h, 0] - pa[i, h, 0], pb[i, h, 1] - pa[i, h, 1], pb[i, h, 2] - pa[i, h, 2]
-                norm = np.sqrt(gx * gx + gy * gy + gz * gz)
-                ux, uy, uz = (gx / norm, gy / norm, gz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
-                out_robot[0], out_robot[1], out_robot[2] = pa[i, h, 0] + ux * radius[c], pa[i, h, 1] + uy * radius[c], \
-                    pa[i, h, 2] + uz * radius[c]
-                out_human[0], out_human[1], out_human[2] = pb[i, h, 0] - ux * hr[h], pb[i, h, 1] - uy * hr[h], \
-                    pb[i, h, 2] - uz * hr[h]
+    if c >= 0:
+        gx, gy, gz = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+        norm = np.sqrt(gx * gx + gy * gy + gz * gz)
+        ux, uy, uz = (gx / norm, gy / norm, gz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
+        out_robot[0], out_robot[1], out_robot[2] = pa[0] + ux * radius[c], pa[1] + uy * radius[c], pa[2] + uz * radius[c]
+        out_human[0], out_human[1], out_human[2] = pb[0] - ux * hr[h], pb[1] - uy * hr[h], pb[2] - uz * hr[h]
     return best
