@@ -128,11 +128,12 @@ def test_random_teleoperation_never_crosses_a_limitation(robot):
     assert sum(r.extras["net_scale"] < 1.0 for r in reports) <= 0.01 * len(reports)
 
 
-XARM7_CAP = ("xarm7 (seed 6, dt 2 ms): the 0.5 m/s speed cap gives way (from 0.11 s on with seed 3) and the "
-             "hand runs at the robot's own 1.0 m/s; that hard limit then overrides the motion limits: joint "
-             "acceleration 6.85x, jerk 117x the limits, 68 of 1500 steps give up smoothness. Likely cause: the "
-             "hand's jerk limit (100 m/s^3 against 50 m/s^2) in the end-effector motion box, which has no "
-             "ramp-down term before the cap (step_kernel.motion_box gets vel=inf for the hand)")
+XARM7_CAP = ("xarm7 (seed 6, dt 2 ms): the hand's commanded speed passes the 0.5 m/s cap from step 352 and "
+             "reaches 0.69 m/s (executed), 8.7 m/s^2 and 116 m/s^3 against the robot's 100, at level 0 with joint "
+             "1, 2 and 5 at their acceleration limits and the demo's sphere zone binding: the cap is a plan row "
+             "and gives way by least squares when it contradicts the joints' motion box and the zone's safety "
+             "row (not the cut count: 12 tangent cuts give the same). The joint limits hold since the cap's "
+             "jerk ramp (0.998 m/s, 6.1x acceleration and 128x jerk, 73 counted steps before)")
 KINOVA_SPHERE = ("kinova (seed 6, dt 2 ms): sliding on the demo's sphere zone (joint 6's capsule) with "
                  "j2s6s200_joint_2 at its speed limit, the zone's braking bound needs up to 50x the motion "
                  "limits (brake_factor) for steps 1004-1024: 21 steps give up smoothness, joint acceleration "
@@ -144,7 +145,7 @@ def _xfail(reason: str):
     return pytest.mark.xfail(strict=True, reason=reason)
 
 
-JOINT_XFAIL = {"xarm7": XARM7_CAP, "kinova": KINOVA_SPHERE}
+JOINT_XFAIL = {"kinova": KINOVA_SPHERE}
 
 
 @pytest.mark.parametrize("robot", [pytest.param(r, marks=_xfail(JOINT_XFAIL[r])) if r in JOINT_XFAIL else r
@@ -174,6 +175,30 @@ def test_random_teleoperation_keeps_the_hand_within_its_limits_and_the_cap(robot
     assert ratios.max_ee_speed_m_s <= cap * 1.03, words  # executed: a few % of curvature over a step
     assert ratios.max_ee_acceleration_m_s2 <= limits.ee_acceleration_m_s2 * OVER_LIMIT_RATIO, words
     assert ratios.max_ee_jerk_m_s3 <= limits.ee_jerk_m_s3 * OVER_LIMIT_RATIO, words
+
+
+def test_a_drag_past_the_speed_cap_arrives_at_the_cap_with_its_acceleration_ramped_down():
+    """The hand dragged from rest at twice the cap in free space: its commanded speed levels off
+    at the cap. On the xarm7 (the hand may accelerate at 50 m/s^2 but change that by only
+    100 m/s^3) a hand still accelerating at the cap cannot stop there within the jerk limit:
+    without the cap's ramp the cap gave way and the command reached 0.98 m/s against 0.5."""
+    for robot in ("xarm7", "panda"):
+        controller = ArmController(robot, zones=[])
+        limits = controller.model.limits
+        cap = min(controller.settings.max_speed_m_s, limits.ee_speed_m_s)
+        v = np.array([0.0, -1.0, 0.2])
+        v *= 2.0 * cap / np.linalg.norm(v)
+        qs, ps, commanded = [controller.state.q.copy()], [controller.state.p_world_ee.copy()], []
+        for _ in range(150):
+            report = controller.step(v, 0.002)
+            qs.append(controller.state.q.copy())
+            ps.append(controller.state.p_world_ee.copy())
+            commanded.append(float(np.linalg.norm(report.v_commanded_m_s)))
+        assert max(commanded) >= 0.95 * cap, robot  # it got there
+        assert max(commanded) <= 1.01 * cap, robot
+        model = controller.model
+        ratios = motion_ratios(np.array(qs), 0.002, limits, lambda a, b: pin.difference(model.model, a, b), np.array(ps))
+        assert ratios.max_ee_jerk_m_s3 <= limits.ee_jerk_m_s3 and controller.smoothness_steps == 0, robot
 
 
 # ---- limitations one by one ----------------------------------------------------------------------
@@ -293,8 +318,11 @@ def test_free_space_commands_are_followed_up_to_the_speed_cap_a_norm():
         speeds[direction] = np.linalg.norm(fast[-1].v_commanded_m_s)
         np.testing.assert_allclose(fast[-1].v_commanded_m_s / speeds[direction], u, atol=1e-6)
     cap = controller.settings.max_speed_m_s
-    assert speeds[(-1.0, 0.0, 0.0)] == pytest.approx(cap, rel=1e-6)
-    assert speeds[(-1.0, -1.0, 1.0)] == pytest.approx(cap, rel=1e-6)  # a diagonal is no faster
+    # At the cap: the hand's acceleration ramps down toward it (jerk-limited) and levels off a
+    # little under it (half the speed its curving path loses per step at a constant joint
+    # velocity); never over it, a diagonal no faster.
+    for speed in speeds.values():
+        assert cap * (1.0 - 1e-3) <= speed <= cap * (1.0 + 1e-9)
 
 
 def test_joint_limits_hold_when_the_arm_is_driven_into_them():

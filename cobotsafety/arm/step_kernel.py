@@ -611,6 +611,18 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
             count += 1
     # ---- 5. filter -----------------------------------------------------------------------------
     cap = speed_cap if strategy != OFF else ee_speed
+    if strategy != OFF:
+        # Toward the cap the hand's acceleration must ramp down at its jerk limit before it
+        # gets there, as ``motion_box`` asks of a joint toward its speed limit: this step's cap
+        # is at most the speed from which that ramp still ends at the cap (the hand levels off
+        # a little under it, by half the speed its curving path loses per step at a constant
+        # joint velocity: ~2e-4 of it on the panda at 2 ms).
+        hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
+        room = cap - hand_speed
+        if room > 0.0:
+            axis_jerk = EE_AXIS_SHARE * ee_jerk
+            a_max = axis_jerk * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / axis_jerk))
+            cap = min(cap, hand_speed + a_max * dt_s)
     qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap, ee_speed)
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
