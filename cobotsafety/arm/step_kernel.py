@@ -263,8 +263,8 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
     (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
     15066's speed for that separation. A retreat never asks for more than the speed cap. A
     limitation whose curvature pulls the sliding arm toward it (``pull`` [m/s^2] > 0 at the
-    arm's velocity now, the kind's own: the extended reach) adds that pull to the approach's acceleration and
-    takes it from the deceleration the brake has along the row."""
+    arm's velocity now, the kind's own: the extended reach) adds that pull to the approach's
+    acceleration and takes it from the deceleration the brake has along the row."""
     nv = A.shape[1]
     worst_factor = 1.0
     stop_decel, stop_jerk = np.inf, np.inf
@@ -351,6 +351,15 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
 
 
 @numba.njit(cache=True)
+def ramp_acceleration(room, jerk, dt_s):  # pragma: no cover - compiled
+    """The largest acceleration toward a speed limit ``room`` [m/s or rad/s] away (> 0) from
+    which the acceleration can still ramp down to zero at ``jerk`` before the limit, in steps
+    of ``dt_s``: the root of ``a^2 / 2j + 1.5 a dt = room`` (``v' = v + a dt``, then the ramp's
+    ``a'^2 / 2j + a' dt / 2``)."""
+    return jerk * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / jerk))
+
+
+@numba.njit(cache=True)
 def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: no cover - compiled
     """The velocities the next step may take [rad/s or m/s]: within ``acc dt`` of the previous
     velocity and ``jerk dt^2`` of its extrapolation at the previous acceleration; when those
@@ -370,8 +379,7 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
             room = vel[j] - sign * qdot_prev[j]  # speed left before the limit on that side
             if room <= 0.0:
                 continue
-            # a'^2 / 2j + 1.5 a' dt - room <= 0 (v' = v + a' dt): the largest a' toward the limit.
-            a_max = jerk[j] * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / jerk[j]))
+            a_max = ramp_acceleration(room, jerk[j], dt_s)
             if side == 0:
                 hi[j] = max(min(hi[j], qdot_prev[j] + a_max * dt_s), lo[j])
             else:
@@ -620,9 +628,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
         hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
         room = cap - hand_speed
         if room > 0.0:
-            axis_jerk = EE_AXIS_SHARE * ee_jerk
-            a_max = axis_jerk * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / axis_jerk))
-            cap = min(cap, hand_speed + a_max * dt_s)
+            cap = min(cap, hand_speed + ramp_acceleration(room, EE_AXIS_SHARE * ee_jerk, dt_s) * dt_s)
     qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap, ee_speed)
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
