@@ -58,3 +58,19 @@ def test_a_leafs_samples_go_to_the_function_its_return_address_is_in():
     total, in_leaves, callers = leaf_callers(dump, functions)
     assert (total, in_leaves) == (5, 4)
     assert callers == {"cobotsafety.arm.step_kernel.arm_step": 2, "cobotsafety.arm.human.rows": 1, "0x9999": 1}
+
+
+def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys):
+    import pytest
+
+    from cobotsafety.tools.perf_map import main
+
+    for argv in (["callers", str(tmp_path / "missing.data"), str(tmp_path / "missing.map")], ["--seconds", "-1"],
+                 ["--robot", "nope"], ["callers", __file__, __file__, "--top", "0"]):
+        with pytest.raises(SystemExit) as exit_info:
+            main(argv)
+        assert exit_info.value.code == 2, argv
+        assert "error: argument" in capsys.readouterr().err
+    assert main(["callers", __file__, __file__]) == 2  # a Python file is no perf map
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is not a perf map" in err

@@ -160,25 +160,40 @@ def _run_step(robot: str, seconds: float) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from cobotsafety.arm.robots import ROBOTS
+    from cobotsafety.cli.arguments import existing_file, one_line, positive_int, positive_seconds
+
     parser = argparse.ArgumentParser(prog="python -m cobotsafety.tools.perf_map", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command")
     callers = sub.add_parser("callers", help="who calls the reference counts, from a perf.data with dwarf stacks")
-    callers.add_argument("data", type=Path)
-    callers.add_argument("map", type=Path)
-    callers.add_argument("--top", type=int, default=20)
-    parser.add_argument("--robot", default="panda")
-    parser.add_argument("--seconds", type=float, default=60.0)
+    callers.add_argument("data", type=existing_file, help="perf.data recorded with --call-graph dwarf")
+    callers.add_argument("map", type=existing_file, help="the /tmp/perf-PID.map this tool wrote")
+    callers.add_argument("--top", type=positive_int, default=20)
+    parser.add_argument("--robot", default="panda", choices=list(ROBOTS))
+    parser.add_argument("--seconds", type=positive_seconds, default=60.0)
     args = parser.parse_args(argv)
-    if args.command == "callers":
-        dump = subprocess.run(["perf", "script", "-i", str(args.data), "-D"], capture_output=True, text=True,
-                              check=True).stdout
-        total, in_leaves, counts = leaf_callers(dump, read_perf_map(args.map))
-        print(f"{total} samples, {in_leaves} ({100.0 * in_leaves / max(total, 1):.1f} %) in {', '.join(REFERENCE_COUNTS)}; "
-              "their callers:")
-        for name, n in counts.most_common(args.top):
-            print(f"{n:7d}  {100.0 * n / max(in_leaves, 1):5.1f} %  {name}")
+    if args.command != "callers":
+        _run_step(args.robot, args.seconds)
         return 0
-    _run_step(args.robot, args.seconds)
+    try:
+        functions = read_perf_map(Path(args.map))
+    except ValueError:
+        print(f"perf_map: {args.map} is not a perf map (lines of start, size, name)", file=sys.stderr)
+        return 2
+    try:
+        dump = subprocess.run(["perf", "script", "-i", args.data, "-D"], capture_output=True, text=True,
+                              check=True).stdout
+    except FileNotFoundError:
+        print("perf_map: perf is not installed (linux-perf)", file=sys.stderr)
+        return 2
+    except subprocess.CalledProcessError as error:
+        print(f"perf_map: perf script failed on {args.data}: {one_line(error.stderr)[:200]}", file=sys.stderr)
+        return 2
+    total, in_leaves, counts = leaf_callers(dump, functions)
+    print(f"{total} samples, {in_leaves} ({100.0 * in_leaves / max(total, 1):.1f} %) in {', '.join(REFERENCE_COUNTS)}; "
+          "their callers:")
+    for name, n in counts.most_common(args.top):
+        print(f"{n:7d}  {100.0 * n / max(in_leaves, 1):5.1f} %  {name}")
     return 0
 
 
