@@ -72,6 +72,39 @@ def test_a_step_at_the_viable_speed_leaves_a_state_that_brakes_before_the_limita
     assert braking_travel(nxt, accel_next, decel, jerk, dt) <= after + 1e-12
 
 
+def largest_viable(gap, speed, accel, decel, jerk, dt, cap):
+    """The definition of ``viable_speed``, solved by plain bisection (no regimes, no closed
+    form): the largest ``s`` in ``[s_lo, max(cap, s_lo)]`` with
+    ``stop_distance(s, a(s)) + s dt <= gap``, ``a(s) = (s - speed) / dt`` within ``+-decel``."""
+    def excess(s):
+        return stop_distance(s, min(max((s - speed) / dt, -decel), decel), decel, jerk, dt) + s * dt - gap
+    lo = speed + max(accel - jerk * dt, -decel) * dt
+    hi = max(cap, lo)
+    if excess(lo) > 0.0:
+        return math.nan
+    if excess(hi) <= 0.0:
+        return math.inf
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) <= 0.0 else (lo, mid)
+    return lo
+
+
+@settings(SETTINGS, max_examples=400)
+@given(gap=st.floats(1e-4, 2.0), speed=st.floats(-0.5, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods,
+       cap=st.floats(0.05, 4.0))
+def test_viable_speed_is_the_largest_viable_speed(gap, speed, share, decel, jerk, dt, cap):
+    """Against bisection on its definition, in every regime (the next step braking, easing,
+    or accelerating at the full limit, where the bound has a closed form)."""
+    accel = share * decel
+    expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
+    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+    if math.isnan(expected) or math.isinf(expected):
+        assert allowed == expected or math.isnan(allowed) and math.isnan(expected)
+    else:
+        assert allowed == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
 @settings(SETTINGS, max_examples=100)
 @given(gap=st.floats(1e-3, 1.0), speed=st.floats(-0.5, 2.0), share=shares, decel=decels, jerk=jerks, dt=periods)
 def test_the_bound_enforced_every_step_against_a_user_pushing_in_never_crosses(gap, speed, share, decel, jerk, dt):

@@ -144,6 +144,18 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
     if f_lo > 0.0:
         return np.nan
     s_hi = max(speed_cap, s_lo)
+    # From ``s_full`` on the step accelerates at the full ``decel`` (a' clipped): there the stop
+    # ramps from +decel to -decel (``t1 = 2 decel / jerk``), leaves the ramp at ``s'`` itself
+    # and brakes at -decel, so ``f`` is a quadratic in ``s'``:
+    # ``s'^2 / 2 decel + s' (t1 + 1.5 dt) + (2/3) decel^3 / jerk^2 + decel dt^2 / 8 - gap``.
+    # Its root, when it lies in that regime, is the answer; else the search below.
+    s_full = speed + decel * dt_s
+    room = gap - (2.0 / 3.0) * decel ** 3 / (jerk * jerk) - 0.125 * decel * dt_s * dt_s
+    if room > 0.0:
+        lead = 2.0 * decel / jerk + 1.5 * dt_s
+        root = decel * (np.sqrt(lead * lead + 2.0 * room / decel) - lead)
+        if root >= s_full and root > 0.0:
+            return np.inf if root >= s_hi else root
     a_hi = min(max((s_hi - speed) / dt_s, -decel), decel)
     f_hi = stop_distance(s_hi, a_hi, decel, jerk, dt_s) + s_hi * dt_s - gap
     if f_hi <= 0.0:
