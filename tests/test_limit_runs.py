@@ -28,13 +28,14 @@ def test_a_scripted_drag_stays_within_the_robots_limits(robot, dt_s):
 def test_a_drag_sliding_along_the_extended_reach_keeps_the_iiwas_limits_at_1_khz():
     """From 1.8 s on the hand slides along the extended reach with joint a6 near its upper
     limit. The sphere bends the hand's straight motion outward (``|v_t|^2 / r``); before the
-    braking model counted that pull, 36 steps gave way to it. Jerk to within the solver's
-    tolerance: ~1e-8 rad/s of velocity is 4e-5 of a5's jerk step (90.8 rad/s^3 x 1 ms^2)."""
+    braking model counted that pull, 36 steps gave way to it. Near the stretched arm the
+    solver's tolerance (in the task's coordinates) is ~2e-8 rad/s of a5's velocity, 1.2e-4 of
+    its jerk step at 1 kHz: the step holds the joints' boxes exactly after the solve."""
     c = ArmController("iiwa")
     run = _measure("drag-turns", c, drag_turns(c, 0.001, duration_s=3.0), 0.001)
     assert run.safety_over_smoothness_steps == 0
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
-    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-4
+    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
 
 
 def test_releases_hold_within_the_limits():

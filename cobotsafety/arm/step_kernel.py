@@ -50,8 +50,8 @@ import numba
 import numpy as np
 
 from cobotsafety.arm.braking import arm_stop_time, safe_speed, stop_time
-from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_STOPPED,
-                                          LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
+from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
+                                          LEVEL_STOPPED, LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
@@ -607,7 +607,7 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     # acceleration seen through today's Jacobian); EE_MOTION_SHARE leaves the rest to the
     # motion's curvature (the executed acceleration is J qddot + dJ/dt qdot).
     ee_lo, ee_hi = np.empty(3), np.empty(3)
-    motion_box(matvec(J, qdot_prev), matvec(J, qddot_prev), np.full(3, EE_AXIS_SHARE * ee_acc),
+    motion_box(ee_velocity_prev, matvec(J, qddot_prev), np.full(3, EE_AXIS_SHARE * ee_acc),
                np.full(3, EE_AXIS_SHARE * ee_jerk), np.full(3, np.inf), dt_s, ee_lo, ee_hi)
     for r in range(3):
         for side in range(2):
@@ -630,6 +630,16 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
         if room > 0.0:
             cap = min(cap, hand_speed + ramp_acceleration(room, EE_AXIS_SHARE * ee_jerk, dt_s) * dt_s)
     qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap, ee_speed)
+    # The solver meets each row to its tolerance in its own units (rows scaled to unit length in
+    # the task's coordinates), which through a task mapping near a singularity is up to ~1e-8
+    # rad/s of a joint's velocity: a few 1e-4 of a jerk step at 1 kHz. The joints' speed limits
+    # (always hard) and, when nothing gave way, their motion box are bounds on one joint each:
+    # held exactly here (the change is that small; the other rows move by as little).
+    if level != LEVEL_STOPPED:
+        for j in range(nv):
+            if level == LEVEL_EXACT:
+                qdot[j] = min(max(qdot[j], lo[j]), hi[j])
+            qdot[j] = min(max(qdot[j], -vel[j]), vel[j])
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
     # ---- 6. integrate and re-check --------------------------------------------------------------
