@@ -125,6 +125,16 @@ def arm_stop_time(qdot, qddot, ee_velocity, acc, jerk, ee_axis_acc, ee_axis_jerk
 
 
 @numba.njit(cache=True)
+def hardest_braking_excess(gap, speed, accel, decel, jerk, dt_s):  # pragma: no cover - compiled
+    """``(s_lo, f)``: the next step's approach speed under the hardest braking the limits allow
+    now (``accel - jerk dt``, at least ``-decel``), and how far beyond ``gap`` its stop still
+    goes (``f > 0``: not viable, whatever the next step does)."""
+    lo = max(accel - jerk * dt_s, -decel)
+    s_lo = speed + lo * dt_s
+    return s_lo, stop_distance(s_lo, lo, decel, jerk, dt_s) + s_lo * dt_s - gap
+
+
+@numba.njit(cache=True)
 def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no cover - compiled
     """The fastest approach [m/s or rad/s] for the next step from which the arm can still brake
     before the limitation, given its approach ``speed`` and acceleration ``accel`` now and its
@@ -138,9 +148,7 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
     caller falls back to ``braking_speed`` and smoothness gives way."""
     if gap <= 0.0:
         return np.nan
-    lo = max(accel - jerk * dt_s, -decel)
-    s_lo = speed + lo * dt_s
-    f_lo = stop_distance(s_lo, lo, decel, jerk, dt_s) + s_lo * dt_s - gap
+    s_lo, f_lo = hardest_braking_excess(gap, speed, accel, decel, jerk, dt_s)
     if f_lo > 0.0:
         return np.nan
     s_hi = max(speed_cap, s_lo)
@@ -198,11 +206,13 @@ def safe_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no c
     if gap <= 0.0:
         return 0.0, 1.0
     lo, hi = 1.0, MAX_BRAKE_FACTOR
-    if np.isnan(viable_speed(gap, speed, accel, hi * decel, hi * jerk, dt_s, speed_cap)):
+    # (viable at a factor: the hardest braking then stops before the limitation; the bound
+    # itself is computed once, at the factor found)
+    if hardest_braking_excess(gap, speed, accel, hi * decel, hi * jerk, dt_s)[1] > 0.0:
         return braking_speed(gap, hi * decel, hi * jerk, dt_s), hi
     for _ in range(30):
         mid = np.sqrt(lo * hi)
-        if np.isnan(viable_speed(gap, speed, accel, mid * decel, mid * jerk, dt_s, speed_cap)):
+        if hardest_braking_excess(gap, speed, accel, mid * decel, mid * jerk, dt_s)[1] > 0.0:
             lo = mid
         else:
             hi = mid
