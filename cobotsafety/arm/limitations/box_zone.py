@@ -190,7 +190,7 @@ def _clearance(real, skip, kin, c, exact_below, pa, u):  # pragma: no cover - co
     return segment_box(p0[c], p1[c], real[0:3], real[3:6], pa, u) - radius[c], True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     p0 = kin[5]
     pa, u = np.empty(3), np.empty(3)
@@ -198,7 +198,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
         out[i], _ = _clearance(real, skip, kin, skip + i, 0.0, pa, u)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull = out

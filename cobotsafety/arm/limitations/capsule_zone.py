@@ -61,7 +61,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
     return max(n_caps - skip, 0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     pa, pb = np.empty(3), np.empty(3)
@@ -70,7 +70,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
         out[i] = capsule_pair(p0[c], p1[c], radius[c], real[0:3], real[3:6], real[6], pa, pb)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull = out

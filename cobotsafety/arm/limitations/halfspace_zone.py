@@ -53,7 +53,7 @@ def _heights(real, p0, p1, c):  # pragma: no cover - compiled
     return s0, s1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     for i in range(p0.shape[0] - skip):
@@ -61,7 +61,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
         out[2 * i], out[2 * i + 1] = -s0 - radius[skip + i], -s1 - radius[skip + i]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull = out

@@ -74,7 +74,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
     return max(n_caps - skip, 0) * n_human
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """``distance - critical`` of every pair, robot-major, into ``out``."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
@@ -86,7 +86,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
             out[i * k + h] = d[i, h] - real[0]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     """The pairs within ``activation_m`` (the limitation's own ``real[1]``, or farther for a
     person walking at the arm: see ``arm_step``)."""

@@ -37,7 +37,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
     return 2 * n_limited
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     """Distances [rad] into ``out`` (2L,)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
@@ -48,7 +48,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
         out[L + i] = upper[iq] - q[iq]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     """Both rows of every limited joint (always active: the filter's braking bound decides)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin

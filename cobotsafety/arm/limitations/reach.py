@@ -63,14 +63,14 @@ def outward_drift(real, p_ee, v):  # pragma: no cover - compiled
     return across2 / r
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     r, _, _, _ = _radius(real, p_ee)
     out[0], out[1] = r - real[3], real[4] - r
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull = out

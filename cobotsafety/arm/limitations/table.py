@@ -42,7 +42,7 @@ def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compile
     return 2 * max(n_caps - skip, 0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     for i in range(p0.shape[0] - skip):
@@ -50,7 +50,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
         out[2 * i], out[2 * i + 1] = p0[c, 2] - radius[c] - real[0], p1[c, 2] - radius[c] - real[0]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull = out
