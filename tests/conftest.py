@@ -6,6 +6,13 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+#: Every property test draws the same examples on every run (a seeded search, no example
+#: database): a red run can be re-run and read, and CI's verdict does not depend on the draw.
+#: A test's own ``@settings`` inherits this.
+settings.register_profile("cobotsafety", derandomize=True, database=None)
+settings.load_profile("cobotsafety")
 
 REPO = Path(__file__).resolve().parents[1]
 #: Real sensor data kept beside the checkout (../shared/data): the full leg_tracker bags.
