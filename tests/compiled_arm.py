@@ -36,6 +36,7 @@ def compiled_kinematics(model: RobotModel, q: np.ndarray, qdot: np.ndarray | Non
 
 def human_tuple(p0, p1, radius, v0, v1, ahead_s: float = 0.0):
     """The human as the rows read it (``human.unpack_human`` of the flat buffer)."""
+    p0, p1, radius, v0, v1 = (np.asarray(x, dtype=float) for x in (p0, p1, radius, v0, v1))
     return human_kind.unpack_human(human_kind.human_buffer(p0, p1, radius, v0, v1), ahead_s)
 
 

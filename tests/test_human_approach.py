@@ -238,3 +238,24 @@ def test_ssm_protective_stop_holds_the_robot_inside_S_only():
     far = approach_step.make_controller("iiwa", "anticipative", ssm="stop")
     out = approach_step.step(far, _torso(approach_step.state(far).p_world_ee + [0.0, 2.0, 0.0]), np.array([0.1, 0.0, 0.0]), 1e-3)
     assert not out.protective_stop and np.linalg.norm(out.report.v_executed_m_s) > 1e-6  # a jerk-limited start
+
+
+def test_changing_ssm_between_steps_takes_effect_at_the_next_step_and_a_bad_mode_is_refused():
+    """The controller works the step's flags out again when ``ssm`` changes (it keeps them from
+    one step to the next): switched on inside S, the next step is a protective stop; switched
+    off, the arm moves again; an unknown mode is refused at the step, naming it."""
+    from cobotsafety.arm.ssm import protective_separation_m
+
+    controller = approach_step.make_controller("iiwa", "anticipative", ssm="off")
+    p_ee = approach_step.state(controller).p_world_ee
+    s_at_rest = float(protective_separation_m(0.0, controller.ssm_params))
+    human = _torso(p_ee + [0.0, s_at_rest - 0.05 + 0.15 + 0.115, 0.0], [0.0, 0.0, 0.0])
+    v = np.array([0.1, 0.0, 0.0])
+    stops = []
+    for mode in ("off", "stop", "both", "off", True, False):
+        controller.arm.ssm = mode
+        stops.append(approach_step.step(controller, human, v, 1e-3).protective_stop)
+    assert stops == [False, True, True, False, True, False]
+    controller.arm.ssm = "sometimes"
+    with pytest.raises(ValueError, match="sometimes"):
+        approach_step.step(controller, human, v, 1e-3)

@@ -80,6 +80,7 @@ _STRATEGY_CODES = {name: code for code, name in enumerate(STRATEGIES)}
 _ANTICIPATIVE, _OFF = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"]
 _FLOAT = np.dtype(float)
 _ZERO3 = np.zeros(3)
+_EMPTY = np.zeros(0)
 _LEVEL_REASONS = {1: "safety over smoothness: the motion limits gave way", 2: "retreats contradict",
                   3: "limits contradict: approaching nothing", 4: "limits contradict: stopped"}
 
@@ -180,6 +181,7 @@ class ArmController:
         self.settings = settings or FilterSettings()
         self.human = human or HumanLimitation()
         self.ssm = ssm
+        self._flags_for: tuple = (object(), 0)  # (the ssm value, its flags): ``_ssm_flags``
         self.watchdog = watchdog
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
         self._offsets = output_layout(nq, nv, c)
@@ -268,18 +270,22 @@ class ArmController:
         """The human now (robot base frame), from the human source; ``None`` clears it (no
         human expected: the watchdog rests). Velocities come with the capsules (the person
         tracker's estimate); without them the human counts as still."""
-        self._human_given_s = self.clock_s if human is not None else -math.inf
-        human = human if human is not None else HumanCapsules.absent()
+        if human is None:
+            self._human_given_s, human = -math.inf, HumanCapsules.absent()
+        else:
+            self._human_given_s = self.clock_s
         self._human = human
-        present = human.present
-        ages = human.ages_s
-        self._human_age_s = max([0.0, *(a for a in ages.values() if math.isfinite(a))]) if present and ages else 0.0
-        if present:
-            v0 = human.v0_b_m_s if human.v0_b_m_s is not None else np.zeros_like(human.p0_b_m)
-            v1 = human.v1_b_m_s if human.v1_b_m_s is not None else np.zeros_like(human.p1_b_m)
+        self._human_age_s = 0.0
+        if human.names:  # present (``HumanCapsules.present``, without the property's call: every step)
+            ages = human.ages_s
+            if ages:
+                self._human_age_s = max([0.0, *(a for a in ages.values() if math.isfinite(a))])
+            v0, v1 = human.v0_b_m_s, human.v1_b_m_s
+            if v0 is None:
+                v0 = v1 = np.zeros_like(human.p0_b_m)
             self._human_f = human_buffer(human.p0_b_m, human.p1_b_m, human.radius_m, v0, v1)
         else:
-            self._human_f = np.zeros(0)
+            self._human_f = _EMPTY
 
     def clear_human(self) -> None:
         self.set_human(None)
@@ -353,7 +359,7 @@ class ArmController:
         if not math.isfinite(self._human_given_s):
             return self._human_f, "", False
         age = self.clock_s - self._human_given_s + self._human_age_s
-        if not self._human.present:
+        if not self._human.names:  # absent
             if age > self.watchdog.stop_after_s and self._human.stale:
                 return self._human_f, f"human sensors silent for {age:.2f} s: stopped", True
             return self._human_f, "", False
@@ -372,12 +378,8 @@ class ArmController:
         v = self._command(v_user, moving, strategy)
         yielding = strategy == _ANTICIPATIVE and self.clock_s < self.yield_until_s
         human_f, human_status, watchdog_stop = self._human_now()
-        mode = SSM_MODES_BY_VALUE.get(self.ssm, self.ssm)
-        if mode not in SSM_MODES:
-            raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
-        flags = (FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") else 0)
-                 | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0) | (FLAG_STOP if watchdog_stop else 0))
-        ahead = self.clock_s - self._human_given_s if self._human.present else 0.0
+        flags = self._ssm_flags() | (FLAG_STOP if watchdog_stop else 0)
+        ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.p_world_ee
         status = arm_step(self._state_f, _ZERO3 if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
@@ -421,6 +423,17 @@ class ArmController:
             report.reason = "blocked by " + ", ".join(report.binding)
         self.last_report = report
         return report
+
+    def _ssm_flags(self) -> int:
+        """The step's flags for ``self.ssm`` (orientation always), worked out again when it changes."""
+        ssm = self.ssm
+        if ssm is not self._flags_for[0]:
+            mode = SSM_MODES_BY_VALUE.get(ssm, ssm)
+            if mode not in SSM_MODES:
+                raise ValueError(f"ssm must be one of {SSM_MODES}, got {ssm!r}")
+            self._flags_for = (ssm, FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") else 0)
+                               | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0))
+        return self._flags_for[1]
 
     def _name(self, code: int) -> str:
         """The words of a row code (memoised per scene and human model)."""
