@@ -516,13 +516,13 @@ def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_lim
 
 
 def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
-    """``field_repulsion`` with ``limit_scale``: the weighted least-norm solution
+    """``field_push`` and ``weighted_least_norm`` with ``limit_scale``: the weighted least-norm solution
     ``W^-1 J^T (J W^-1 J^T + lambda I)^-1 f s`` of Chan and Dubey (1995), ``W = diag(1 +
     |dH/dq|)`` with the joint-limit measure ``H = sum (u - l)^2 / (4 (u - q)(q - l))``, here
     differentiated numerically; at mid-range every weight is 1 (paper 2's repulsion), and a
     joint near its limit moves less than in paper 2's (the others take over)."""
     from compiled_arm import compiled_kinematics, robot
-    from cobotsafety.arm.step_kernel import field_repulsion, limit_scale, unpack_robot
+    from cobotsafety.arm.step_kernel import field_push, limit_scale, unpack_robot, weighted_least_norm
 
     model = robot("iiwa")
     unpacked = unpack_robot(model.robot_i, model.robot_f)
@@ -549,10 +549,11 @@ def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
     J_cp = kin.point_jacobian(kin.capsule_joint[capsule], p_robot)
     expected = W_inv @ J_cp.T @ np.linalg.solve(J_cp @ W_inv @ J_cp.T + damping * np.eye(3), f * s)
     scale = limit_scale(q, lower, upper, limited, len(q))
-    qdot = field_repulsion(d, capsule, p_robot, p_robot - 0.3 * s, len(q), cap_joint, oR, op, axes, idx_v, support,
-                           critical, influence, k_rep, f_max, damping, scale)
+    J_push, push = field_push(d, capsule, p_robot, p_robot - 0.3 * s, len(q), cap_joint, oR, op, axes, idx_v,
+                              support, critical, influence, k_rep, f_max)
+    np.testing.assert_allclose(push, f * s, rtol=1e-12)
+    qdot = weighted_least_norm(J_push, push, damping, scale)
     np.testing.assert_allclose(qdot, expected, rtol=1e-5, atol=1e-9)
-    plain = field_repulsion(d, capsule, p_robot, p_robot - 0.3 * s, len(q), cap_joint, oR, op, axes, idx_v, support,
-                            critical, influence, k_rep, f_max, damping, np.ones(len(q)))
+    plain = weighted_least_norm(J_push, push, damping, np.ones(len(q)))
     assert abs(qdot[3]) < 0.7 * abs(plain[3])  # the elbow near its limit moves less (the others take over)
     np.testing.assert_allclose(limit_scale(middle, lower, upper, limited, len(q)), 1.0)

@@ -29,11 +29,11 @@ The step:
    come; SSM's speed limit; the joints' speed limits; the motion box of each joint
    (acceleration and jerk limits from the previous step) and of the end-effector;
 3. the strategy: ``anticipative`` filters ``q0`` (``joint_filter``), next to a person ``q0``
-   plus ``evasion_gain`` times paper 2's repulsion (``field_repulsion``); ``stop`` commands zero as
-   soon as ``q0`` would break a bound (the arm brakes within its limits); ``reactive`` is paper
-   2's potential field at the human's closest point, projected onto the other limitations (it
-   slides off them as the anticipative filter does); ``off`` keeps only the robot's own speed,
-   acceleration and jerk limits;
+   plus ``evasion_gain`` times paper 2's repulsion (``field_push``, ``weighted_least_norm``);
+   ``stop`` commands zero as soon as ``q0`` would break a bound (the arm brakes within its
+   limits); ``reactive`` is paper 2's potential field at the human's closest point, projected
+   onto the other limitations (it slides off them as the anticipative filter does); ``off``
+   keeps only the robot's own speed, acceleration and jerk limits;
 4. integration (``pin.integrate``'s arithmetic) and the safety net: a step that would cross a
    limitation clear before it (the rows are first-order on curved limitations), or deepen one
    already violated, is scaled down by bisection; only limitations the step can reach are
@@ -175,30 +175,42 @@ def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, s
 
 
 @numba.njit(cache=True)
-def field_repulsion(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m,
-                    influence_m, k_rep_m_s, max_repulsion_m_s, damping, joint_scale):  # pragma: no cover - compiled
-    """Paper 2's repulsion (eqs. 18-21, errata 5-6) as a joint velocity (nv,): ``DLS(J_cp, f s)``
-    with ``f = k_rep (d_o / (d - d_cr) - 1)`` (at most ``max_repulsion_m_s``) within
-    ``d_cr + d_o`` of the human, ``s`` the unit vector from the human's closest point to the
-    robot's, ``J_cp`` the Jacobian of the robot's closest point; zero outside (or without a
-    human). The caller handles ``d <= d_cr``. ``joint_scale`` (nv,) weighs the joints: the
-    weighted least norm ``D DLS(J_cp D, f s)``, ``D = diag(joint_scale)`` (all ones: paper 2's)."""
+def field_push(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m,
+               influence_m, k_rep_m_s, max_repulsion_m_s):  # pragma: no cover - compiled
+    """Paper 2's repulsion (eqs. 18-21, errata 5-6) as a task: ``(J_cp (3, nv), f s (3,))``, with
+    ``f = k_rep (d_o / (d - d_cr) - 1)`` (at most ``max_repulsion_m_s``) within ``d_cr + d_o`` of
+    the human, ``s`` the unit vector from the human's closest point to the robot's, ``J_cp`` the
+    Jacobian of the robot's closest point; a zero push outside (or without a human). The caller
+    handles ``d <= d_cr``."""
+    J_cp = np.zeros((3, nv))
     if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m or d_min <= critical_m:
-        return np.zeros(nv)
+        return J_cp, np.zeros(3)
     f = min(k_rep_m_s * (influence_m / (d_min - critical_m) - 1.0), max_repulsion_m_s)
     if f <= 0.0:
-        return np.zeros(nv)
+        return J_cp, np.zeros(3)
     gap = p_robot - p_human
     s = gap / max(np.sqrt(np.sum(gap * gap)), 1e-9)
-    J_cp = np.empty((3, nv))
     e = np.zeros(3)
     for r in range(3):
         e[:] = 0.0
         e[r] = 1.0
         point_jacobian_row(e, p_robot, cap_joint[capsule], oR, op, axes, idx_v, support, J_cp[r])
+    return J_cp, f * s
+
+
+@numba.njit(cache=True)
+def weighted_least_norm(J_cp, push, damping, joint_scale):  # pragma: no cover - compiled
+    """The joint velocity (nv,) that gives ``push`` (3,) at the point of Jacobian ``J_cp``: the
+    weighted least norm ``D DLS(J_cp D, push)``, ``D = diag(joint_scale)`` (all ones: paper 2's
+    ``DLS(J_cp, push)``); zero for a zero push."""
+    nv = J_cp.shape[1]
+    if push[0] == 0.0 and push[1] == 0.0 and push[2] == 0.0:
+        return np.zeros(nv)
+    weighted = np.empty((3, nv))
+    for r in range(3):
         for j in range(nv):
-            J_cp[r, j] *= joint_scale[j]
-    qdot = damped_least_squares(J_cp, f * s, damping)
+            weighted[r, j] = J_cp[r, j] * joint_scale[j]
+    qdot = damped_least_squares(weighted, push, damping)
     for j in range(nv):
         qdot[j] *= joint_scale[j]
     return qdot
@@ -225,14 +237,14 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
                    critical_m, influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
     """Paper 2's potential field (eqs. 16-21, errata 5-6): ``(qdot (nv,), stopped)``.
 
-    ``qdot = DLS(J, v_att) + field_repulsion``; at ``d <= d_cr`` the collision is unavoidable:
+    ``qdot = DLS(J, v_att) + DLS(J_cp, f s)`` (``field_push``); at ``d <= d_cr`` the collision is unavoidable:
     stop."""
     nv = J.shape[1]
     if np.isfinite(d_min) and d_min <= critical_m:
         return np.zeros(nv), True
-    return damped_least_squares(J, v_att, damping) + field_repulsion(
-        d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m, influence_m,
-        k_rep_m_s, max_repulsion_m_s, damping, np.ones(nv)), False
+    J_cp, push = field_push(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support,
+                            critical_m, influence_m, k_rep_m_s, max_repulsion_m_s)
+    return damped_least_squares(J, v_att, damping) + weighted_least_norm(J_cp, push, damping, np.ones(nv)), False
 
 
 @numba.njit(cache=True)
@@ -499,17 +511,15 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
         # Chan and Dubey's weights on the joints moving toward a limit (paper 2's repulsion first,
         # unweighted, says which): the evasion leaves joints near their limits alone rather
         # than wedging the arm against several limits at once.
-        unweighted = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
-                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping,
-                                     np.ones(nv))
+        J_cp, push = field_push(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
+                                field_critical, field_influence, field_k_rep, field_max_rep)
+        unweighted = weighted_least_norm(J_cp, push, field_damping, np.ones(nv))
         scale = limit_scale(q, lower, upper, limited, nv)
         for i in range(limited.shape[0]):
             iq, iv = limited[i, 0], limited[i, 1]
             if unweighted[iv] * (q[iq] - 0.5 * (lower[iq] + upper[iq])) <= 0.0:
                 scale[iv] = 1.0  # moving toward the middle: free
-        repulsion = field_repulsion(d_min, capsule, pr, ph, nv, cap_joint, oR, op, axes, idx_v, support,
-                                    field_critical, field_influence, field_k_rep, field_max_rep, field_damping,
-                                    scale)
+        repulsion = weighted_least_norm(J_cp, push, field_damping, scale)
         for j in range(nv):
             q0[j] += evasion_gain * repulsion[j]
             evading = evading or repulsion[j] != 0.0
