@@ -1,6 +1,6 @@
 """The braking bound (``arm/braking.py``) against a step-by-step braking simulation
-(``oracles.braking.braking_travel``): hypothesis property tests (derandomized: the same examples
-every run), and the bound at each robot's own joint limits."""
+(``oracles.braking.braking_travel``): hypothesis property tests (derandomized, as every
+property test: ``conftest.py``), and the bound at each robot's own joint limits."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ decels = st.floats(0.5, 50.0)
 jerks = st.floats(1.0, 4.0).map(lambda e: 10.0 ** e)
 periods = st.sampled_from(PERIODS_S)
 shares = st.floats(-1.0, 1.0)  # an acceleration as a share of the deceleration limit
-SETTINGS = settings(max_examples=200, deadline=None, derandomize=True, database=None)
+SETTINGS = settings(max_examples=200, deadline=None)
 
 
 @SETTINGS

@@ -3,7 +3,8 @@
 Random argument strings, non-finite and huge numbers, odd shapes: the CLI ends with exit 0 or
 2 and one line, never a traceback; whatever the parser lets through is within range; the API
 returns finite values of the documented shape or raises a ``ValueError``/``CobotSafetyError``,
-never NaN. Examples are few and seeded (``derandomize``) so the file runs in seconds.
+never NaN. Examples are few (and seeded, as every property test: ``conftest.py``) so the
+file runs in seconds.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from cobotsafety.cli.arguments import MAX_RATE_HZ, MIN_RATE_HZ
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.trial.pseudonyms import PSEUDONYM
 
-FUZZ = settings(max_examples=60, derandomize=True, deadline=None,
+FUZZ = settings(max_examples=60, deadline=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 COMMANDS = (["demo"], ["trial"], ["analyze"], ["bench", "planar"], ["bench", "arm"], ["bench", "app"],
             ["bench", "distance"], ["bench", "sensors"], ["experiment", "multi-limitation"],
@@ -108,7 +109,7 @@ def test_every_value_of_an_option_is_parsed_within_range_or_refused(capsys, chec
     exits_cleanly(capsys, [*command, option, value])
 
 
-@settings(max_examples=25, derandomize=True, deadline=None,
+@settings(max_examples=25, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(content=st.one_of(st.binary(max_size=300), st.binary(max_size=300).map(gzip.compress),
                          st.text(max_size=200).map(lambda t: gzip.compress(t.encode()))),
@@ -126,7 +127,7 @@ def test_random_replay_files_are_refused_in_one_line(capsys, tmp_path_factory, m
     assert exits_cleanly(capsys, ["demo", "--replay", str(path)]) == 2
 
 
-@settings(max_examples=15, derandomize=True, deadline=None,
+@settings(max_examples=15, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(lines=st.lists(st.one_of(st.binary(max_size=60), st.text(max_size=60).map(str.encode),
                                 st.sampled_from([b'{"participant": "P01"}', b"5", b"[]", b"null",

@@ -129,7 +129,7 @@ def violates_exactly(normals, bounds, v) -> bool:
                for row, b in zip(normals, bounds))
 
 
-@settings(max_examples=400, deadline=None, derandomize=True, database=None)
+@settings(max_examples=400, deadline=None)
 @given(problems())
 @example((np.array([0.5]), np.array([[-5e-324]]), np.array([-0.0])))  # subnormal normal: -2.5e-324 < 0
 def test_properties(problem):
