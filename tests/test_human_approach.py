@@ -241,9 +241,9 @@ def test_ssm_protective_stop_holds_the_robot_inside_S_only():
 
 
 def test_changing_ssm_between_steps_takes_effect_at_the_next_step_and_a_bad_mode_is_refused():
-    """The controller works the step's flags out again when ``ssm`` changes (it keeps them from
-    one step to the next): switched on inside S, the next step is a protective stop; switched
-    off, the arm moves again; an unknown mode is refused at the step, naming it."""
+    """Each step reads ``ssm`` as it is then: switched on inside S, the next step is a
+    protective stop; switched off, the arm moves again; an unknown mode is refused at the step,
+    naming it."""
     from cobotsafety.arm.ssm import protective_separation_m
 
     controller = approach_step.make_controller("iiwa", "anticipative", ssm="off")

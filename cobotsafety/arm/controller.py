@@ -76,6 +76,10 @@ MAX_STEP_S = 0.010
 MAX_PERIOD_S = 1.0
 SSM_MODES = ("off", "scaling", "stop", "both")
 SSM_MODES_BY_VALUE = {False: "off", True: "both"}
+#: The step's flags for each ``ssm`` value (orientation always).
+_SSM_FLAGS = {mode: FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") else 0)
+              | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0) for mode in SSM_MODES}
+_SSM_FLAGS.update({value: _SSM_FLAGS[mode] for value, mode in SSM_MODES_BY_VALUE.items()})
 _STRATEGY_CODES = {name: code for code, name in enumerate(STRATEGIES)}
 _ANTICIPATIVE, _OFF = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"]
 _FLOAT = np.dtype(float)
@@ -181,7 +185,6 @@ class ArmController:
         self.settings = settings or FilterSettings()
         self.human = human or HumanLimitation()
         self.ssm = ssm
-        self._flags_for: tuple = (object(), 0)  # (the ssm value, its flags): ``_ssm_flags``
         self.watchdog = watchdog
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
         self._offsets = output_layout(nq, nv, c)
@@ -378,7 +381,10 @@ class ArmController:
         v = self._command(v_user, moving, strategy)
         yielding = strategy == _ANTICIPATIVE and self.clock_s < self.yield_until_s
         human_f, human_status, watchdog_stop = self._human_now()
-        flags = self._ssm_flags() | (FLAG_STOP if watchdog_stop else 0)
+        ssm_flags = _SSM_FLAGS.get(self.ssm)
+        if ssm_flags is None:
+            raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
+        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.p_world_ee
@@ -423,17 +429,6 @@ class ArmController:
             report.reason = "blocked by " + ", ".join(report.binding)
         self.last_report = report
         return report
-
-    def _ssm_flags(self) -> int:
-        """The step's flags for ``self.ssm`` (orientation always), worked out again when it changes."""
-        ssm = self.ssm
-        if ssm is not self._flags_for[0]:
-            mode = SSM_MODES_BY_VALUE.get(ssm, ssm)
-            if mode not in SSM_MODES:
-                raise ValueError(f"ssm must be one of {SSM_MODES}, got {ssm!r}")
-            self._flags_for = (ssm, FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") else 0)
-                               | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0))
-        return self._flags_for[1]
 
     def _name(self, code: int) -> str:
         """The words of a row code (memoised per scene and human model)."""
