@@ -150,3 +150,49 @@ def test_log3_equals_pinocchio_on_every_branch():
     for _ in range(50):
         R = pin.exp3(rng.normal(size=3)).astype(np.float32).astype(float)
         np.testing.assert_allclose(log3(R), pin.log3(R), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["panda", "kinova"])
+def test_a_step_takes_the_previous_steps_kinematics_only_at_their_q_and_leaves_them_unchanged(monkeypatch, name):
+    """Each step is handed the previous step's output (its kinematics at its q_next); run again
+    on copies with no previous output, or with an older step's (another q), it must give the
+    same state and outputs bit for bit, and the previous output must not change."""
+    from cobotsafety.arm import controller as controller_module
+    from cobotsafety.arm.controller import ArmController
+    from cobotsafety.human.body import HumanCapsules
+
+    controller = ArmController(name)
+    p = controller.state.p_world_ee
+    controller.set_human(HumanCapsules(np.array([[p[0], p[1] + 0.4, 0.2]]), np.array([[p[0], p[1] + 0.4, 1.6]]),
+                                       np.array([0.2]), ("torso",)))
+    original = controller_module.arm_step
+    nq = controller.model.nq
+    older: list[np.ndarray] = []
+    seen = {"reused": 0, "older_elsewhere": 0}
+
+    def run(kin_f, state_f, rest):
+        state = state_f.copy()
+        out_f, out_i = np.empty_like(rest[-2]), np.empty_like(rest[-1])
+        status = original(state, kin_f, *rest[:-2], out_f, out_i)
+        return [status, state.tobytes(), out_f.tobytes(), out_i.tobytes()]
+
+    def checked_step(state_f, kin_f, *rest):
+        kin_before = kin_f.copy()
+        fresh = run(np.zeros(0), state_f, rest)
+        if older:
+            older_q = older[-1][:nq]
+            seen["older_elsewhere"] += not np.array_equal(older_q, state_f[:nq])
+            assert run(older[-1], state_f, rest) == fresh
+        seen["reused"] += kin_f.shape[0] > nq and np.array_equal(kin_f[:nq], state_f[:nq])
+        status = original(state_f, kin_f, *rest)
+        assert [status, state_f.tobytes(), rest[-2].tobytes(), rest[-1].tobytes()] == fresh
+        assert kin_f.tobytes() == kin_before.tobytes()
+        older.append(kin_f)
+        return status
+
+    monkeypatch.setattr(controller_module, "arm_step", checked_step)
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        controller.set_human(controller.human_frame)
+        controller.step(0.3 * rng.normal(size=3), 0.002)
+    assert seen["reused"] == 60 and seen["older_elsewhere"] >= 50

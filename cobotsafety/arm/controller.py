@@ -187,7 +187,7 @@ class ArmController:
         self.ssm = ssm
         self.watchdog = watchdog
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
-        self._offsets = output_layout(nq, nv, c)
+        self._offsets = tuple(int(o) for o in output_layout(nq, nv, c, int(self.model.robot_i[0])))
         self._state_f = np.zeros(nq + 2 * nv + 6)
         self._reference_f = np.zeros(10)
         self._settings_f = self.settings.vector()
@@ -221,7 +221,7 @@ class ArmController:
         self._reference_f[9] = self.settings.max_speed_m_s
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         # Off, braking to a stop from rest: the arm stays put and the step computes its kinematics.
-        arm_step(self._state_f, np.zeros(3), 1e-3, _OFF, FLAG_STOP, 0.0, self._reference_f, self.model.robot_i,
+        arm_step(self._state_f, _EMPTY, np.zeros(3), 1e-3, _OFF, FLAG_STOP, 0.0, self._reference_f, self.model.robot_i,
                  self.model.robot_f, np.zeros((0, 2), dtype=np.int64), np.zeros((0, 12)), np.zeros(0),
                  self._settings_f, out_f, out_i)
         self._state_f[:nq] = q
@@ -387,8 +387,8 @@ class ArmController:
         flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
-        before = self.state.p_world_ee
-        status = arm_step(self._state_f, _ZERO3 if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
+        before = self.state.out_f  # the previous step's output: the kinematics at q
+        status = arm_step(self._state_f, before, _ZERO3 if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
                           self.model.robot_i, self.model.robot_f, self._scene_i, self._scene_f, human_f,
                           self._settings_f, out_f, out_i)
         if status != STATUS_DONE:

@@ -38,6 +38,11 @@ class RobotState:
         """Read the state from a step's output buffer (``step_kernel.output_layout``)."""
         self._out, self._offsets = out_f, offsets
 
+    @property
+    def out_f(self) -> np.ndarray:
+        """The output buffer of the step the state was read from (the next step's ``kin_f``)."""
+        return self._out
+
     def _part(self, i: int) -> np.ndarray:
         return self._out[self._offsets[i]:self._offsets[i + 1]]
 

@@ -6,6 +6,8 @@ buffers grouped by role:
 
 * ``state_f``: ``q`` (nq), the previous step's joint velocity (nv) and acceleration (nv), the
   end-effector's previous velocity (3) and acceleration (3). Updated in place.
+* ``kin_f``: the previous step's ``out_f``: its kinematics at its q_next are this step's at
+  ``q`` when ``q`` is that q_next (checked bit for bit; else, e.g. an empty array, computed).
 * the command: the desired end-effector velocity ``v`` (3) [m/s], the period ``dt_s`` [s], the
   strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM, forced stop), how far
   ahead of its frame the human is extrapolated [s], and ``reference_f``: the reference
@@ -19,8 +21,8 @@ buffers grouped by role:
 
 The step:
 
-1. kinematics at ``q`` (``kinematics.py``), the task's joint velocity ``q0 = M v + c`` and the
-   null basis (``task.py``);
+1. kinematics at ``q`` (``kinematics.py``, or the previous step's at its q_next), the task's
+   joint velocity ``q0 = M v + c`` and the null basis (``task.py``);
 2. every limitation's rows ``(d, a, rate)`` (``limitations/``) and their bounds
    (``limitation_bounds``): the approach speed from which the arm can still brake before the
    limitation (``braking.braking_speed``); for a person walking at the arm, ISO/TS 15066's
@@ -102,12 +104,14 @@ def decode_row(code: int) -> tuple[int, int, int]:
 
 
 @numba.njit(cache=True)
-def output_layout(nq, nv, n_caps):  # pragma: no cover - compiled
+def output_layout(nq, nv, n_caps, nj):  # pragma: no cover - compiled
     """Offsets in ``out_f``: q_next, qdot, p_ee, R_ee, J6, cap_p0, cap_p1, v_commanded,
     v_executed, min_distance, p_robot, p_human, net_scale, worst_violation, motion_violation,
     brake_factor (the largest factor by which a bound exceeded the motion limits), the step's
-    joint acceleration ratio (max over joints of |qddot| / limit), and the total size."""
-    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1)
+    joint acceleration ratio (max over joints of |qddot| / limit), the joints' rotations oR
+    (nj, 3, 3) and positions op (nj, 3) at q_next, and the total size. The kinematics at q_next
+    (p_ee to cap_p1, oR, op) are the next step's at its q (``previous_kinematics``)."""
+    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1, 9 * nj, 3 * nj)
     offsets = np.zeros(len(sizes) + 1, dtype=np.int64)
     for i in range(len(sizes)):
         offsets[i + 1] = offsets[i] + sizes[i]
@@ -172,6 +176,31 @@ def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, s
             p0[k, r] = op[j, r] + oR[j, r, 0] * cap_p0l[k, 0] + oR[j, r, 1] * cap_p0l[k, 1] + oR[j, r, 2] * cap_p0l[k, 2]
             p1[k, r] = op[j, r] + oR[j, r, 0] * cap_p1l[k, 0] + oR[j, r, 1] * cap_p1l[k, 1] + oR[j, r, 2] * cap_p1l[k, 2]
     return oR, op, p_ee, R_ee, J6, p0, p1
+
+
+@numba.njit(cache=True)
+def previous_kinematics(kin_f, q, offsets, nj, nv, n_caps):  # pragma: no cover - compiled
+    """Whether ``kin_f`` (a previous step's ``out_f``, laid out by ``offsets``) holds the
+    kinematics at ``q`` (its q_next equal to ``q`` bit for bit), and ``kinematics``' tuple read
+    from it (views; the step only reads them, and a step's output buffer never changes once
+    written)."""
+    nq = q.shape[0]
+    found = kin_f.shape[0] == offsets[-1]
+    if found:
+        for i in range(nq):
+            if kin_f[i] != q[i]:
+                found = False
+                break
+    if not found:
+        kin_f = np.zeros(offsets[-1])  # (never read: typed like the views)
+    oR = kin_f[offsets[17]:offsets[18]].reshape((nj, 3, 3))
+    op = kin_f[offsets[18]:offsets[19]].reshape((nj, 3))
+    p_ee = kin_f[offsets[2]:offsets[3]]
+    R_ee = kin_f[offsets[3]:offsets[4]].reshape((3, 3))
+    J6 = kin_f[offsets[4]:offsets[5]].reshape((6, nv))
+    p0 = kin_f[offsets[5]:offsets[6]].reshape((n_caps, 3))
+    p1 = kin_f[offsets[6]:offsets[7]].reshape((n_caps, 3))
+    return found, oR, op, p_ee, R_ee, J6, p0, p1
 
 
 @numba.njit(cache=True)
@@ -399,7 +428,7 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
 
 
 @numba.njit(cache=True)
-def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference_f, robot_i, robot_f, scene_i,
+def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference_f, robot_i, robot_f, scene_i,
              scene_f, human_f, settings_f, out_f, out_i):  # pragma: no cover - compiled
     """One step (see the module docstring); returns the status (``STATUS_*``)."""
     (nq, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, limited, axes, placement_R, placement_t,
@@ -430,8 +459,11 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     n_caps = cap_joint.shape[0]
     n_lim = scene_i.shape[0]
     # ---- 1. kinematics and task --------------------------------------------------------------
-    oR, op, p_ee, R_ee, J6, p0, p1 = kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t,
-                                                support, ee_joint, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, nv)
+    offsets = output_layout(nq, nv, n_caps, jtype.shape[0])
+    found, oR, op, p_ee, R_ee, J6, p0, p1 = previous_kinematics(kin_f, q, offsets, jtype.shape[0], nv, n_caps)
+    if not found:
+        oR, op, p_ee, R_ee, J6, p0, p1 = kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t,
+                                                    support, ee_joint, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, nv)
     kin = (q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot_prev)
     speed = np.sqrt(np.sum(v * v))
     if speed > speed_cap:
@@ -708,7 +740,6 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
             high = scale
     qdot_exec = qdot * net_scale
     # ---- 7. outputs and the next step's state ---------------------------------------------------
-    offsets = output_layout(nq, nv, n_caps)
     v_executed = (p_ee2 - p_ee) / dt_s
     out_f[offsets[0]:offsets[1]] = q_next
     out_f[offsets[1]:offsets[2]] = qdot_exec
@@ -778,6 +809,8 @@ def arm_step(state_f, v_desired, dt_s, strategy, flags, human_ahead_s, reference
     for j in range(nv):
         acceleration_ratio = max(acceleration_ratio, abs(qdot_exec[j] - qdot_prev[j]) / dt_s / acc[j])
     out_f[offsets[16]] = acceleration_ratio
+    out_f[offsets[17]:offsets[18]] = oR2.ravel()
+    out_f[offsets[18]:offsets[19]] = op2.ravel()
     state_f[0:nq] = q_next
     state_f[nq:nq + nv] = qdot_exec
     state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s

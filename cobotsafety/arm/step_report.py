@@ -20,7 +20,7 @@ class ArmStepReport:
 
     __slots__ = ("_out_f", "_out_i", "_o", "_name", "_binding", "_motion", "v_desired_m_s", "stopped", "reason",
                  "contradictions", "safety_over_smoothness", "safety_over_smoothness_steps", "human_status",
-                 "_p_before")
+                 "_previous_f")
 
     @property
     def protective_stop(self) -> bool:
@@ -34,7 +34,7 @@ class ArmStepReport:
         return bool(self._out_i[I_EVADING])
 
     def __init__(self, out_f, out_i, offsets, name, v_desired_m_s, stopped, reason, contradictions, smoothness,
-                 smoothness_steps, human_status, p_before):
+                 smoothness_steps, human_status, previous_f):
         self._out_f, self._out_i, self._o, self._name = out_f, out_i, offsets, name
         self._binding = self._motion = None
         self.v_desired_m_s = v_desired_m_s
@@ -45,7 +45,7 @@ class ArmStepReport:
         self.safety_over_smoothness = smoothness
         self.safety_over_smoothness_steps = smoothness_steps
         self.human_status = human_status
-        self._p_before = p_before
+        self._previous_f = previous_f  # the previous step's out_f (the hand before the step)
 
     def _part(self, i: int) -> np.ndarray:
         return self._out_f[self._o[i]:self._o[i + 1]]
@@ -104,7 +104,7 @@ class ArmStepReport:
         the factor by which a safety bound exceeded the motion limits, the hand before the step."""
         o = self._out_f
         return {"net_scale": float(o[self._o[12]]), "qdot": self._part(1), "level": int(self._out_i[1]),
-                "brake_factor": float(o[self._o[15]]), "p_before_m": self._p_before}
+                "brake_factor": float(o[self._o[15]]), "p_before_m": self._previous_f[self._o[2]:self._o[3]]}
 
     @property
     def joint_acceleration_ratio(self) -> float:
