@@ -200,7 +200,7 @@ class ArmController:
         self.reach = reach_limits(self.state) if reach else None
         self.table = TablePlane(0.0) if table else None
         self.zones = zones if zones is not None else default_zones(self.state.p_world_ee)
-        self._pack_key: tuple | None = None
+        self._packed: list = []
         self._pack = None
         self._names: dict = {}
         self._human = HumanCapsules.absent()
@@ -257,12 +257,13 @@ class ArmController:
         return found + list(self.zones) + [self.human]
 
     def _scene(self):
-        """The packed scene, packed again when a zone is added, replaced (zones are frozen: a
-        change is a new object) or removed, or the reach, table or human limitation replaced."""
-        key = (*map(id, self.zones), id(self.reach), id(self.table), id(self.human))
-        if key != self._pack_key:
+        """The packed scene, packed again when a zone is added, replaced or removed, or the
+        reach, table or human limitation replaced (limitations are frozen values: a change is a
+        new object; one equal to the one it replaces packs the same)."""
+        current = [*self.zones, self.reach, self.table, self.human]
+        if current != self._packed:  # (each the same object: no comparison of values)
             self._pack = pack_scene(self.limitations, self.model)
-            self._pack_key = key
+            self._packed = current
             self._scene_i = np.ascontiguousarray(np.stack([self._pack.kinds, self._pack.skips], axis=1))
             self._scene_f = np.ascontiguousarray(self._pack.reals)
             self._names = {}

@@ -452,7 +452,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         (flags & FLAG_STOP) != 0
     ssm_stop = (flags & FLAG_PROTECTIVE) != 0
     ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
-    out_i[:] = 0
+    out_i[:OUT_I_HEADER] = 0  # (the row codes after it: written as far as the header counts them)
     out_f[:] = 0.0
     hp0, hp1, hr, hv0, hv1 = human_kind.unpack_human(human_f, human_ahead_s)
     hum = (hp0, hp1, hr, hv0, hv1)
