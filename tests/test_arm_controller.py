@@ -226,6 +226,28 @@ def test_recovery_from_inside_a_zone_only_reduces_the_violation():
     assert previous > start + 0.02
 
 
+def test_zones_added_replaced_or_removed_in_place_take_effect_at_the_next_step():
+    """A wall just below the hand, added to the zones list in place, stops a downward drag; the
+    same wall replaced in place by one far below frees it; removed, the drag is free too."""
+    controller = ArmController("panda", zones=[], table=False)
+    z = controller.p_base_ee_m[2]
+    down = [0.0, 0.0, -0.2]
+
+    def dropped() -> float:
+        start = controller.p_base_ee_m[2]
+        drive(controller, down, 50, 0.002)
+        return start - controller.p_base_ee_m[2]
+
+    free = dropped()
+    assert free > 0.01
+    controller.zones.append(HalfSpaceZone("floor", (0.0, 0.0, z - free - 0.002), (0.0, 0.0, -1.0)))
+    assert dropped() < 0.002 and "floor" in " ".join(controller.last_report.binding)
+    controller.zones[0] = HalfSpaceZone("floor", (0.0, 0.0, -1.0), (0.0, 0.0, -1.0))
+    assert dropped() > 0.5 * free
+    controller.zones.pop()
+    assert dropped() > 0.5 * free
+
+
 def test_a_singular_pose_gives_finite_commands_and_the_arm_bends_away():
     controller = ArmController("ur5", zones=[], reach=False, table=False)  # the singularity alone
     controller.set_configuration(np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0]))  # stretched up: singular
