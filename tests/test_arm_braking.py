@@ -4,6 +4,7 @@ property test: ``conftest.py``), and the bound at each robot's own joint limits.
 
 from __future__ import annotations
 
+import decimal
 import math
 
 import numpy as np
@@ -11,8 +12,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, braking_distance, braking_speed, safe_speed,
-                                     stop_distance, stop_time, viable_speed)
+from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, braking_distance, braking_speed,
+                                     positive_root, safe_speed, stop_distance, stop_time, viable_speed)
 from cobotsafety.arm.robots import ROBOTS
 from compiled_arm import robot
 from oracles.braking import braking_duration, braking_travel
@@ -23,6 +24,22 @@ jerks = st.floats(1.0, 4.0).map(lambda e: 10.0 ** e)
 periods = st.sampled_from(PERIODS_S)
 shares = st.floats(-1.0, 1.0)  # an acceleration as a share of the deceleration limit
 SETTINGS = settings(max_examples=200, deadline=None)
+
+
+@SETTINGS
+@given(k=st.floats(-1.0, 5.0).map(lambda e: 10.0 ** e), lead=st.floats(0.0, 1.0),
+       room=st.floats(-15.0, 1.0).map(lambda e: 10.0 ** e))
+def test_positive_root_is_the_root_to_the_last_digits_even_for_a_small_room(k, lead, room):
+    """Against the same root in 60-digit decimal arithmetic (where the textbook form's
+    cancellation costs nothing): within 4e-16 relative, also where ``room`` is a tiny share of
+    ``lead^2 k`` (the textbook form in float64 loses up to all its digits there)."""
+    assume(lead > 0.0 or room > 0.0)
+    with decimal.localcontext() as context:
+        context.prec = 60
+        K, L, R = decimal.Decimal(k), decimal.Decimal(lead), decimal.Decimal(room)
+        exact = K * ((L * L + 2 * R / K).sqrt() - L)
+    assert abs(decimal.Decimal(positive_root(k, lead, room)) - exact) <= decimal.Decimal(4e-16) * exact
+    assert positive_root(k, lead, -room) == positive_root(k, lead, 0.0) == 0.0
 
 
 @SETTINGS

@@ -42,6 +42,18 @@ MAX_BRAKE_FACTOR = 50.0
 
 
 @numba.njit(cache=True)
+def positive_root(k, lead, room):  # pragma: no cover - compiled
+    """The ``x >= 0`` with ``x^2 / 2k + lead x = room`` (``k`` > 0, ``lead`` >= 0; 0 when
+    ``room`` <= 0): a speed ``x`` braked at ``k`` after ``lead`` seconds, or an acceleration
+    ramped down at jerk ``k``, that covers ``room``. Written ``2 room / (lead + sqrt(lead^2 +
+    2 room / k))``, which does not cancel when ``room`` is small (the textbook ``k (sqrt(...) -
+    lead)`` loses the digits the subtraction takes)."""
+    if room <= 0.0:
+        return 0.0
+    return 2.0 * room / (lead + np.sqrt(lead * lead + 2.0 * room / k))
+
+
+@numba.njit(cache=True)
 def braking_distance(speed, decel, jerk, dt_s):  # pragma: no cover - compiled
     """``D(v)`` above [m or rad]: the longest braking from ``speed`` >= 0."""
     tau = 2.0 * decel / jerk + 0.5 * dt_s
@@ -57,11 +69,7 @@ def braking_speed(gap, decel, jerk, dt_s):  # pragma: no cover - compiled
         return 0.0
     tau = 2.0 * decel / jerk + 0.5 * dt_s
     room = gap - (2.0 / 3.0) * decel ** 3 / (jerk * jerk) - decel * dt_s * dt_s
-    if room <= 0.0:
-        return 0.0
-    at = decel * tau
-    speed = -at + np.sqrt(at * at + 2.0 * decel * room)
-    return min(speed, gap / dt_s)
+    return min(positive_root(decel, tau, room), gap / dt_s)
 
 
 @numba.njit(cache=True)
@@ -160,8 +168,7 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
     s_full = speed + decel * dt_s
     room = gap - (2.0 / 3.0) * decel ** 3 / (jerk * jerk) - 0.125 * decel * dt_s * dt_s
     if room > 0.0:
-        lead = 2.0 * decel / jerk + 1.5 * dt_s
-        root = decel * (np.sqrt(lead * lead + 2.0 * room / decel) - lead)
+        root = positive_root(decel, 2.0 * decel / jerk + 1.5 * dt_s, room)
         if root >= s_full and root > 0.0:
             return np.inf if root >= s_hi else root
     a_hi = min(max((s_hi - speed) / dt_s, -decel), decel)

@@ -34,9 +34,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-import numba
+from cobotsafety.arm.braking import positive_root
 
 #: ISO 13855's walking speed [m/s] (used by ISO/TS 15066 when the human's speed is not measured).
 ISO_13855_HUMAN_SPEED_M_S = 1.6
@@ -99,11 +100,7 @@ def approach_speed_kernel(separation_m, params):  # pragma: no cover - compiled
     ``v^2 / 2a + v (T_r + v_h / a) + (v_h T_r + C + Z_d + Z_r - separation) = 0`` (0 where even a
     robot at rest is too close)."""
     v_h, t_r, a, c, z_d, z_r = params[0], params[1], params[2], params[3], params[4], params[5]
-    b = t_r + v_h / a
-    constant = v_h * t_r + c + z_d + z_r - separation_m
-    if constant >= 0.0:
-        return 0.0
-    return (-b + np.sqrt(b * b - 2.0 * constant / a)) * a
+    return positive_root(a, t_r + v_h / a, separation_m - (v_h * t_r + c + z_d + z_r))
 
 
 def stopping_time_s(robot_speed_m_s, braking_m_s2: float):

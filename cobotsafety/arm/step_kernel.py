@@ -51,7 +51,7 @@ import math
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import arm_stop_time, safe_speed, stop_time
+from cobotsafety.arm.braking import arm_stop_time, positive_root, safe_speed, stop_time
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
                                           LEVEL_STOPPED, LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
@@ -397,7 +397,7 @@ def ramp_acceleration(room, jerk, dt_s):  # pragma: no cover - compiled
     which the acceleration can still ramp down to zero at ``jerk`` before the limit, in steps
     of ``dt_s``: the root of ``a^2 / 2j + 1.5 a dt = room`` (``v' = v + a dt``, then the ramp's
     ``a'^2 / 2j + a' dt / 2``)."""
-    return jerk * (-1.5 * dt_s + np.sqrt(2.25 * dt_s * dt_s + 2.0 * room / jerk))
+    return positive_root(jerk, 1.5 * dt_s, room)
 
 
 @numba.njit(cache=True)
