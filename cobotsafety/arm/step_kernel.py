@@ -118,7 +118,7 @@ def output_layout(nq, nv, n_caps, nj):  # pragma: no cover - compiled
     return offsets
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def unpack_robot(robot_i, robot_f):  # pragma: no cover - compiled
     """The robot's arrays as views of its buffers (``robot_model.robot_buffers``)."""
     nj, nq, nv, ee_joint, c, L = robot_i[0], robot_i[1], robot_i[2], robot_i[3], robot_i[4], robot_i[5]
@@ -178,7 +178,7 @@ def kinematics(q, jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, s
     return oR, op, p_ee, R_ee, J6, p0, p1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def previous_kinematics(kin_f, q, offsets, nj, nv, n_caps):  # pragma: no cover - compiled
     """Whether ``kin_f`` (a previous step's ``out_f``, laid out by ``offsets``) holds the
     kinematics at ``q`` (its q_next equal to ``q`` bit for bit), and ``kinematics``' tuple read
