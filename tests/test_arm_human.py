@@ -557,3 +557,32 @@ def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
     plain = weighted_least_norm(J_push, push, damping, np.ones(len(q)))
     assert abs(qdot[3]) < 0.7 * abs(plain[3])  # the elbow near its limit moves less (the others take over)
     np.testing.assert_allclose(limit_scale(middle, lower, upper, limited, len(q)), 1.0)
+
+
+def test_the_closest_pair_from_the_rows_distances_is_the_closest_pair_measured_again():
+    """``closest_of_rows`` (the evasion's and the field's closest pair, from the human rows'
+    ``distance - critical``) against ``closest_axis_pair`` (every pair measured): the same
+    distance, capsules and points bit for bit, on random arms and people (a generator of our
+    own) and on people placed so that two pairs tie or round together after the subtraction."""
+    from cobotsafety.arm.limitations.human import closest_axis_pair, closest_of_rows
+    from cobotsafety.geometry.capsule import all_pairs
+
+    rng = np.random.default_rng(41)
+    ties = 0
+    for trial in range(300):
+        n, k, skip = int(rng.integers(2, 9)), int(rng.integers(1, 6)), int(rng.integers(0, 2))
+        p0, p1 = rng.uniform(-0.5, 0.5, (n, 3)), rng.uniform(-0.5, 0.5, (n, 3))
+        radius = rng.uniform(0.02, 0.1, n)
+        hp0, hp1 = rng.uniform(-1.0, 1.0, (k, 3)), rng.uniform(-1.0, 1.0, (k, 3))
+        hr = rng.uniform(0.03, 0.2, k)
+        if trial % 3 == 0 and k > 1:  # a person's capsule repeated: an exact tie
+            hp0[1], hp1[1], hr[1] = hp0[0], hp1[0], hr[0]
+        critical = float(rng.choice([0.25, 0.307, 1e16]))  # 1e16 (ulp 2 m): the distances round together
+        d, _, _ = all_pairs(p0, p1, radius, skip, hp0, hp1, hr)
+        before = (d - critical).ravel()
+        ties += int(np.sum(before == before.min()) > 1)
+        found = closest_of_rows(before, skip, p0, p1, radius, hp0, hp1, hr)
+        measured = closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr)
+        assert found[:3] == measured[:3]
+        assert found[3].tobytes() == measured[3].tobytes() and found[4].tobytes() == measured[4].tobytes()
+    assert ties >= 30  # ties exercised (44 of the 300 draws)

@@ -515,14 +515,14 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
                       before[before_start[con]:before_start[con + 1]])
     is_human = np.zeros(m, dtype=np.bool_)
     separation = np.full(m, np.inf)  # the human rows' capsule distance [m]
-    human_skip = 1
+    human_skip, human_con = 1, -1
     for i in range(m):
         is_human[i] = scene_i[tag[i, 0], 0] == human_kind.KIND
         if is_human[i]:
             separation[i] = dist[i] + reals[tag[i, 0], 0]
     for con in range(n_lim):
         if scene_i[con, 0] == human_kind.KIND:
-            human_skip = min(scene_i[con, 1], n_caps)
+            human_skip, human_con = min(scene_i[con, 1], n_caps), con
     # ---- 3. the strategy's target ------------------------------------------------------------
     q0 = matvec(M, v) + c
     Z = null_basis(J)
@@ -535,7 +535,11 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     evading = False
     evades = strategy == ANTICIPATIVE and evasion_gain > 0.0 and n_human > 0
     if evades or strategy == REACTIVE:
-        d_min, capsule, _, pr, ph = human_kind.closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
+        if human_con >= 0:  # the pair from the human rows' distances (every pair measured there)
+            d_min, capsule, _, pr, ph = human_kind.closest_of_rows(
+                before[before_start[human_con]:before_start[human_con + 1]], human_skip, p0, p1, radius, hp0, hp1, hr)
+        else:
+            d_min, capsule, _, pr, ph = human_kind.closest_axis_pair(p0, p1, radius, human_skip, hp0, hp1, hr)
     if evades:
         # Next to a person the command is the user's plus paper 2's repulsion at the arm's
         # closest point (``evasion_gain`` of it): the arm moves its body out of the way as the

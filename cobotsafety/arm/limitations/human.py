@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from cobotsafety.arm.kinematics import point_jacobian_row
-from cobotsafety.geometry.capsule import all_pairs
+from cobotsafety.geometry.capsule import all_pairs, capsule_pair
 
 KIND = 6
 ANGULAR = False
@@ -146,6 +146,32 @@ def closest_axis_pair(p0, p1, radius, skip, hp0, hp1, hr):  # pragma: no cover -
                 best, capsule, person = ds[i, h], skip + i, h
                 for r in range(3):
                     pr[r], ph[r] = pa[i, h, r], pb[i, h, r]
+    return best, capsule, person, pr, ph
+
+
+@numba.njit(cache=True)
+def closest_of_rows(before, skip, p0, p1, radius, hp0, hp1, hr):  # pragma: no cover - compiled
+    """``closest_axis_pair``'s result from the distances ``rows`` wrote at the same
+    configuration (``before``: each pair's ``distance - critical``, robot-major): only the pairs
+    with the least of them are measured again (subtracting the critical distance can round
+    distances together), and the first with the least distance is the pair
+    ``closest_axis_pair`` finds, without measuring every pair a second time."""
+    k = hr.shape[0]
+    least = np.inf
+    for i in range(before.shape[0]):
+        if before[i] < least:
+            least = before[i]
+    best, capsule, person = np.inf, -1, -1
+    pr, ph = np.full(3, np.nan), np.full(3, np.nan)
+    pa, pb = np.empty(3), np.empty(3)
+    for i in range(before.shape[0]):
+        if before[i] == least:
+            c, h = skip + i // k, i % k
+            d = capsule_pair(p0[c], p1[c], radius[c], hp0[h], hp1[h], hr[h], pa, pb)
+            if d < best:
+                best, capsule, person = d, c, h
+                for r in range(3):
+                    pr[r], ph[r] = pa[r], pb[r]
     return best, capsule, person, pr, ph
 
 
