@@ -478,7 +478,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     M, c = task_mapping(J, np.ascontiguousarray(J6[3:]), error, centering, damping_max, w_threshold,
                         orientation_gain, 0.5 * vel, with_orientation)
     # ---- 2. rows -----------------------------------------------------------------------------
-    reals = scene_f.copy()
+    reals = scene_f.copy() if strategy == REACTIVE else scene_f  # (the field's own critical distance below)
     n_human = hr.shape[0]
     max_lim_rows, n_before = 0, 0
     before_start = np.zeros(n_lim + 1, dtype=np.int64)
@@ -527,7 +527,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     q0 = matvec(M, v) + c
     Z = null_basis(J)
     nz = 3 + Z.shape[1]
-    B = np.zeros((nv, nz))
+    B = np.empty((nv, nz))
     B[:, :3] = M
     B[:, 3:] = Z / null_weight
     stopped = False
@@ -606,7 +606,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             safe_bounds[i] = min(safe_bounds[i], 0.0)
     # ---- 4. the rows the filter keeps ----------------------------------------------------------
     capacity = 2 * m + 4 * nv + 6 + SPEED_CUTS
-    N = np.zeros((capacity, nv))
+    N = np.empty((capacity, nv))  # (every row written in full before it is read)
     b = np.empty(capacity)
     group = np.empty(capacity, dtype=np.int64)
     code = np.empty(capacity, dtype=np.int64)
@@ -634,6 +634,8 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
                 count += 1
     for j in range(nv):
         for side in range(2):
+            for k in range(nv):
+                N[count, k] = 0.0
             N[count, j] = 1.0 if side == 0 else -1.0
             b[count], group[count] = -vel[j], VELOCITY
             code[count] = row_code(OWNER_VELOCITY, j, side)
@@ -644,6 +646,8 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         for side in range(2):
             if (side == 0 and lo[j] <= -vel[j]) or (side == 1 and hi[j] >= vel[j]):
                 continue  # the speed limit is the stricter
+            for k in range(nv):
+                N[count, k] = 0.0
             N[count, j] = 1.0 if side == 0 else -1.0
             b[count], group[count] = (lo[j] if side == 0 else -hi[j]), MOTION
             code[count] = row_code(OWNER_MOTION, j, side)
