@@ -13,7 +13,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, braking_distance, braking_speed,
-                                     positive_root, safe_speed, stop_distance, stop_time, viable_speed)
+                                     positive_root, row_capacity, safe_speed, stop_distance, stop_time,
+                                     viable_speed)
 from cobotsafety.arm.robots import ROBOTS
 from compiled_arm import robot
 from oracles.braking import braking_duration, braking_travel
@@ -40,6 +41,44 @@ def test_positive_root_is_the_root_to_the_last_digits_even_for_a_small_room(k, l
         exact = K * ((L * L + 2 * R / K).sqrt() - L)
     assert abs(decimal.Decimal(positive_root(k, lead, room)) - exact) <= decimal.Decimal(4e-16) * exact
     assert positive_root(k, lead, -room) == positive_root(k, lead, 0.0) == 0.0
+
+
+def _joints_best_rate_acceleration(a, qddot, acc, jerk, t):
+    """The most the joints can raise ``a . qddot`` in ``t`` seconds: each joint ramps its own
+    acceleration at its jerk limit toward its acceleration limit on the row's side, and stays."""
+    helping = np.sign(a) * qddot
+    return float(np.sum(np.abs(a) * np.maximum(np.minimum(acc, helping + jerk * t), helping)))
+
+
+@SETTINGS
+@given(a=st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7),
+       at=st.lists(st.sampled_from([-1.0, -0.5, 0.0, 0.7, 1.0]) | st.floats(-1.0, 1.0), min_size=7, max_size=7),
+       robot_name=st.sampled_from(sorted(ROBOTS)))
+def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_name):
+    """The rate's acceleration ``row_capacity`` models (from ``a . qddot`` up at ``ramp``, then
+    ``decel``) is below the most the joints can give at every moment (the joints' ramps are
+    piecewise linear, so checking at each joint's knee and the line's end suffices), and not
+    loose: the line reaches ``decel`` when the last joint reaches its limit. Fails with the
+    ramp taken as ``sum_j |a_j| jerk_j`` whenever a joint on the row is already at its limit
+    (the arm braking or turning hard: the drags' steps that gave up smoothness)."""
+    limits = robot(robot_name).limits
+    n = min(7, limits.acceleration_rad_s2.shape[0])
+    acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
+    A = np.array([a[:n]])
+    assume(np.any(A != 0.0))
+    qddot = np.array(at[:n]) * acc
+    decel, ramp, accel = row_capacity(A, 0, qddot, acc, jerk)
+    assert decel == pytest.approx(float(np.abs(A[0]) @ acc), rel=1e-12)
+    assert accel == pytest.approx(float(A[0] @ qddot), rel=1e-12, abs=1e-12)
+    assert 0.0 < ramp <= float(np.abs(A[0]) @ jerk) * (1 + 1e-12)
+    helping = np.sign(A[0]) * qddot
+    knees = [(acc[j] - helping[j]) / jerk[j] for j in range(n) if A[0, j] != 0.0 and helping[j] < acc[j]]
+    end = (decel - accel) / ramp
+    for t in [0.0, end, *knees]:
+        model = min(accel + ramp * t, decel)
+        assert model <= _joints_best_rate_acceleration(A[0], qddot, acc, jerk, t) + 1e-9 * decel
+    if knees:
+        assert end == pytest.approx(max(knees), rel=1e-9)
 
 
 @SETTINGS

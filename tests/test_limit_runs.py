@@ -38,9 +38,14 @@ def test_a_drag_sliding_along_the_extended_reach_keeps_the_iiwas_limits_at_1_khz
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
 
 
-def test_releases_hold_within_the_limits():
-    c = ArmController("panda")
-    run = _measure("drag-release", c, drag_release(c, 0.001, pulls=2), 0.001)
+@pytest.mark.parametrize("robot,pulls", [("panda", 2), ("iiwa", 6)])
+def test_releases_hold_within_the_limits(robot, pulls):
+    """Released while it slides on the iiwa's extended reach (the fourth pull, at 2.69 s),
+    the hand brakes with joints a5 and a6 already at their acceleration limits: the reach's
+    braking bound counted their jerk as if they could still give more (23 steps gave up
+    smoothness, jerk 1.29 times the limit) until ``row_capacity`` took them out."""
+    c = ArmController(robot)
+    run = _measure("drag-release", c, drag_release(c, 0.001, pulls=pulls), 0.001)
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9 and run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.safety_over_smoothness_steps == 0
 

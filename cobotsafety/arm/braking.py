@@ -26,8 +26,9 @@ states and checks it stops before the limitation.
 
 The same bound serves every limitation: for a joint ``a`` and ``j`` are its own limits times the
 braking share; for a Cartesian limitation (zones, table, reach, the human) they are what the
-joints can give along its normal ``n`` (``share * sum_i |n_i| a_i``), at most the
-end-effector's own limits (per axis: the end-effector's box). For a person walking at the arm
+joints can give along its normal ``n`` (``share * sum_i |n_i| a_i``, ramped up at the jerk the
+joints keep up from their accelerations now: ``row_capacity``), at most the end-effector's own
+limits (per axis: the end-effector's box). For a person walking at the arm
 the gap is shortened by how far they walk while the arm's approach ends (``stop_time``, ISO/TS
 15066's ``v_h T_s``); ``arm_stop_time`` bounds how long the whole arm takes to stand still.
 """
@@ -51,6 +52,33 @@ def positive_root(k, lead, room):  # pragma: no cover - compiled
     if room <= 0.0:
         return 0.0
     return 2.0 * room / (lead + np.sqrt(lead * lead + 2.0 * room / k))
+
+
+@numba.njit(cache=True, inline="always")
+def row_capacity(A, i, qddot, acc, jerk):  # pragma: no cover - compiled
+    """What the joints can give to raise row ``i``'s rate ``a . qdot`` (``a = A[i]``), from
+    their accelerations ``qddot`` now under their limits ``acc``, ``jerk``: ``(decel, ramp,
+    accel)``, the largest acceleration of the rate (``sum_j |a_j| acc_j``), a jerk at which the
+    rate's acceleration can always ramp from ``accel = a . qddot`` up to it, and ``accel``.
+
+    Each joint ramps its own acceleration toward its limit on the row's side at its own jerk
+    and stops there, so the row's acceleration rises at ``sum_j |a_j| jerk_j`` only while no
+    joint has reached its limit: a joint already at it (the arm braking or turning hard) gives
+    nothing more. The sum of those ramps is concave in time, so it stays above the straight
+    line from ``accel`` now to ``decel`` when the last joint gets there (``T = max_j (acc_j -
+    sign(a_j) qddot_j) / jerk_j``): ``ramp`` is that line's slope, at most the sum."""
+    decel, ramp, accel, ramp_time = 0.0, 0.0, 0.0, 0.0
+    for j in range(A.shape[1]):
+        w = A[i, j]
+        decel += abs(w) * acc[j]
+        ramp += abs(w) * jerk[j]
+        accel += w * qddot[j]
+        if w != 0.0:
+            helping = qddot[j] if w > 0.0 else -qddot[j]
+            ramp_time = max(ramp_time, (acc[j] - helping) / jerk[j])
+    if ramp_time > 0.0 and decel > accel:
+        ramp = min(ramp, (decel - accel) / ramp_time)
+    return decel, ramp, accel
 
 
 @numba.njit(cache=True)

@@ -51,7 +51,7 @@ import math
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import arm_stop_time, positive_root, safe_speed, stop_time
+from cobotsafety.arm.braking import arm_stop_time, positive_root, row_capacity, safe_speed, stop_time
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
                                           LEVEL_STOPPED, LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
@@ -290,7 +290,8 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
     Outside the buffer: approach no faster than the arm can brake before the limitation from
     its approach speed and acceleration now (``braking.safe_speed``: beyond reach, with the least
     excess over the motion limits that still stops before it), with what the joints can give
-    along the row (at most the end-effector's limits for metric rows). The plan brakes as part
+    along the row from their accelerations now (``braking.row_capacity``: a joint already at its
+    limit adds no jerk; at most the end-effector's limits for metric rows). The plan brakes as part
     of the whole arm's stop (every joint's velocity scaled down together, as fast as the
     bottleneck joint allows), so that budgets of rows binding at once are met by one braking;
     a moving human's rows keep the capacity along their own normal (a retreat is not a stop).
@@ -317,14 +318,12 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         stop_decel = min(stop_decel, EE_AXIS_SHARE * ee_acc / ee_speed_prev)
         stop_jerk = min(stop_jerk, EE_AXIS_SHARE * ee_jerk / ee_speed_prev)
     for i in range(count):
-        decel, jerk_n, reach, own_speed, own_accel = 0.0, 0.0, 0.0, 0.0, 0.0
+        decel, jerk_n, rate_accel = row_capacity(A, i, qddot_prev, acc, jerk)
+        own_accel = -rate_accel
+        reach, own_speed = 0.0, 0.0
         for j in range(nv):
-            w = abs(A[i, j])
-            decel += w * acc[j]
-            jerk_n += w * jerk[j]
-            reach += w * vel[j]
+            reach += abs(A[i, j]) * vel[j]
             own_speed -= A[i, j] * qdot_prev[j]
-            own_accel -= A[i, j] * qddot_prev[j]
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
