@@ -67,17 +67,19 @@ def row_capacity(A, i, qddot, acc, jerk):  # pragma: no cover - compiled
     nothing more. The sum of those ramps is concave in time, so it stays above the straight
     line from ``accel`` now to ``decel`` when the last joint gets there (``T = max_j (acc_j -
     sign(a_j) qddot_j) / jerk_j``): ``ramp`` is that line's slope, at most the sum."""
-    decel, ramp, accel, ramp_time = 0.0, 0.0, 0.0, 0.0
+    decel, ramp, accel = 0.0, 0.0, 0.0
+    room_last, jerk_last = 0.0, 1.0  # T = room_last / jerk_last (compared without dividing)
     for j in range(A.shape[1]):
         w = A[i, j]
         decel += abs(w) * acc[j]
         ramp += abs(w) * jerk[j]
         accel += w * qddot[j]
         if w != 0.0:
-            helping = qddot[j] if w > 0.0 else -qddot[j]
-            ramp_time = max(ramp_time, (acc[j] - helping) / jerk[j])
-    if ramp_time > 0.0 and decel > accel:
-        ramp = min(ramp, (decel - accel) / ramp_time)
+            room = acc[j] - (qddot[j] if w > 0.0 else -qddot[j])
+            if room * jerk_last > room_last * jerk[j]:
+                room_last, jerk_last = room, jerk[j]
+    if room_last > 0.0 and decel > accel:
+        ramp = min(ramp, (decel - accel) * jerk_last / room_last)
     return decel, ramp, accel
 
 
