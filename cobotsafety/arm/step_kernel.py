@@ -319,6 +319,14 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         stop_jerk = min(stop_jerk, EE_AXIS_SHARE * ee_jerk / ee_speed_prev)
     for i in range(count):
         decel, jerk_n, rate_accel = row_capacity(A, i, qddot_prev, acc, jerk)
+        if rate[i] < 0.0:
+            # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
+            # time the arm's approach takes to end, which with the ramp of the joints' state now
+            # fell faster than the arm could follow (``test_a_person_faster_than_the_arm...``):
+            # their rows keep every joint's jerk, as before ``row_capacity``.
+            jerk_n = 0.0
+            for j in range(nv):
+                jerk_n += abs(A[i, j]) * jerk[j]
         own_accel = -rate_accel
         reach, own_speed = 0.0, 0.0
         for j in range(nv):
