@@ -188,6 +188,38 @@ def test_the_ssm_protective_stop_keeps_the_protective_distance_at_rest():
     assert closest["off"] < s_at_rest - 0.1
 
 
+def test_the_protective_stop_holds_until_the_arm_could_go_at_its_full_speed():
+    """A stopped arm's S is the smallest (it approaches at 0): a stop released there lets the arm
+    go, reach S at its new speed and stop again, every few steps while the separation hovers at
+    S (224 stop/go transitions in paper 2's exp1). The stop holds until the separation is S at
+    the speed cap: one stop while the person stays, still held a little inside S at the cap
+    (well beyond S at rest), and the arm goes again beyond it. Fails with the stop released at
+    S for the arm's speed now (several stops; going again inside S at the cap)."""
+    from cobotsafety.arm.ssm import protective_separation_m
+
+    controller = ArmController("panda", settings=SLIDING, zones=[], ssm="stop",
+                               human=HumanLimitation(critical_m=0.05, activation_m=2.0))
+    cap = min(controller.settings.max_speed_m_s, controller.model.limits.ee_speed_m_s)
+    s_rest, s_cap = (float(protective_separation_m(v, SsmParams())) for v in (0.0, cap))
+    human = beside(controller, offset=(0.0, 0.6, 0.0), radius=0.05, height=(0.0, 0.0))
+    _, reports = drive(controller, human, [0.0, 0.3, 0.0], "anticipative", 400)
+    held = [r.protective_stop for r in reports]
+    assert sum(b and not a for a, b in zip([False, *held], held)) == 1 and held[-1]
+
+    def moved_to(target):  # the person steps back along y until the separation is ``target``
+        return beside(controller, offset=(0.0, 0.6 + target - first_stop, 0.0), radius=0.05, height=(0.0, 0.0))
+
+    first_stop = separation(controller, human)
+    human = moved_to(s_cap - 0.03)
+    assert separation(controller, human) == pytest.approx(s_cap - 0.03, abs=0.005) and s_cap - 0.03 > s_rest + 0.1
+    distances, reports = drive(controller, human, [0.0, 0.3, 0.0], "anticipative", 100)
+    assert all(r.protective_stop and r.stopped for r in reports)
+    assert np.ptp(distances) < 1e-6  # standing still
+    human = moved_to(s_cap + 0.03)
+    _, reports = drive(controller, human, [0.0, 0.3, 0.0], "anticipative", 20)
+    assert not reports[0].protective_stop and reports[-1].v_executed_m_s[1] > 0.01
+
+
 def test_a_larger_stale_human_never_lets_the_robot_approach_faster():
     speeds = []
     for radius in (0.05, 0.15, 0.3):  # the degraded model grows while the sensors are silent

@@ -33,7 +33,8 @@ else refused). Around the filter:
   ISO/TS 15066 speed and separation monitoring (``arm.ssm``): *speed scaling*, the arm's approach
   to the human at most the standard's speed for the separation; the *protective stop*, the arm
   brakes to a stop while the separation is below the protective distance ``S`` at its approach
-  speed.
+  speed, and stays stopped until the separation is at least ``S`` at the speed cap (the speed it
+  may take when it goes again), so it does not stop and go where the separation hovers at ``S``.
 """
 
 from __future__ import annotations
@@ -52,10 +53,9 @@ from cobotsafety.arm.limitations.registry import pack_scene
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_SSM, FLAG_STOP, OUT_I_HEADER,
-                                         OWNER_EE_MOTION,
-                                         OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY, STATUS_DONE, STRATEGIES, arm_step,
-                                         decode_row, output_layout)
+from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP,
+                                         OUT_I_HEADER, OWNER_EE_MOTION, OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
+                                         STATUS_DONE, STRATEGIES, arm_step, decode_row, output_layout)
 from cobotsafety.arm.step_report import ArmStepReport
 from cobotsafety.errors import CobotSafetyError
 from cobotsafety.human.body import HumanCapsules
@@ -243,6 +243,7 @@ class ArmController:
         self.yield_until_s = -math.inf
         self.contradictions = 0
         self.smoothness_steps = 0
+        self._protective = False  # the last step ended in SSM's protective stop
         self.last_report: StepReport | None = None
 
     @property
@@ -385,7 +386,7 @@ class ArmController:
         ssm_flags = _SSM_FLAGS.get(self.ssm)
         if ssm_flags is None:
             raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
-        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0)
+        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if self._protective else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.out_f  # the previous step's output: the kinematics at q
@@ -397,6 +398,7 @@ class ArmController:
         self.clock_s += dt_s
         self.state.refresh(out_f, self._offsets)
         _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
+        self._protective = protective != 0
         stopped = stopped != 0
         relaxed = level in (2, 3) and relaxed_rows > 0
         if level:

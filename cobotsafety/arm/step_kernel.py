@@ -9,7 +9,8 @@ buffers grouped by role:
 * ``kin_f``: the previous step's ``out_f``: its kinematics at its q_next are this step's at
   ``q`` when ``q`` is that q_next (checked bit for bit; else, e.g. an empty array, computed).
 * the command: the desired end-effector velocity ``v`` (3) [m/s], the period ``dt_s`` [s], the
-  strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM, forced stop), how far
+  strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM's speed scaling, forced
+  stop, SSM's protective stop, and that stop under way in the previous step), how far
   ahead of its frame the human is extrapolated [s], and ``reference_f``: the reference
   orientation (9, row-major) and the speed cap [m/s].
 * ``robot_i``, ``robot_f``: the robot (``robot_model.robot_buffers``).
@@ -66,7 +67,7 @@ ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
 STRATEGIES = ("anticipative", "stop", "reactive", "off")
 #: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM's speed scaling; brake to a
 #: stop; SSM's protective stop.
-FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE = 1, 2, 4, 8
+FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD = 1, 2, 4, 8, 16
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
 #: anticipative command carried the repulsion from a person); then the binding rows' codes, then
@@ -466,7 +467,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     speed_cap = min(reference_f[9], max_speed, ee_limits[0])
     with_orientation, ssm, force_stop = (flags & FLAG_ORIENTATION) != 0, (flags & FLAG_SSM) != 0, \
         (flags & FLAG_STOP) != 0
-    ssm_stop = (flags & FLAG_PROTECTIVE) != 0
+    ssm_stop, protective_held = (flags & FLAG_PROTECTIVE) != 0, (flags & FLAG_PROTECTIVE_HELD) != 0
     ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
     out_i[:OUT_I_HEADER] = 0  # (the row codes after it: written as far as the header counts them)
     out_f[:] = 0.0
@@ -593,7 +594,10 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
                                      bounds, keep, safe_bounds, safe_keep)
     if ssm_stop and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
-        approach = 0.0
+        # A stop already under way holds until S at the speed cap, the speed the arm may take
+        # when it goes again: a stopped arm's S is the smallest, so without that it would go
+        # and stop again every few steps where the separation hovers at S.
+        approach = speed_cap if protective_held else 0.0
         for i in range(m):
             if is_human[i]:
                 toward = 0.0
