@@ -67,10 +67,14 @@ def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_
     A = np.array([a[:n]])
     assume(np.any(A != 0.0))
     qddot = np.array(at[:n]) * acc
-    decel, ramp, accel = row_capacity(A, 0, qddot, acc, jerk)
+    qdot = np.array(at[::-1][:n]) * limits.velocity_rad_s[:n]
+    rate, accel, decel, ramp, ramp_all, reach = row_capacity(A, 0, qdot, qddot, acc, jerk, limits.velocity_rad_s[:n])
+    assert rate == pytest.approx(float(A[0] @ qdot), rel=1e-12, abs=1e-12)
+    assert reach == pytest.approx(float(np.abs(A[0]) @ limits.velocity_rad_s[:n]), rel=1e-12)
     assert decel == pytest.approx(float(np.abs(A[0]) @ acc), rel=1e-12)
     assert accel == pytest.approx(float(A[0] @ qddot), rel=1e-12, abs=1e-12)
-    assert 0.0 < ramp <= float(np.abs(A[0]) @ jerk) * (1 + 1e-12)
+    assert ramp_all == pytest.approx(float(np.abs(A[0]) @ jerk), rel=1e-12)
+    assert 0.0 < ramp <= ramp_all
     helping = np.sign(A[0]) * qddot
     knees = [(acc[j] - helping[j]) / jerk[j] for j in range(n) if A[0, j] != 0.0 and helping[j] < acc[j]]
     end = (decel - accel) / ramp

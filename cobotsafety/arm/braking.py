@@ -55,32 +55,38 @@ def positive_root(k, lead, room):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def row_capacity(A, i, qddot, acc, jerk):  # pragma: no cover - compiled
-    """What the joints can give to raise row ``i``'s rate ``a . qdot`` (``a = A[i]``), from
-    their accelerations ``qddot`` now under their limits ``acc``, ``jerk``: ``(decel, ramp,
-    accel)``, the largest acceleration of the rate (``sum_j |a_j| acc_j``), a jerk at which the
-    rate's acceleration can always ramp from ``accel = a . qddot`` up to it, and ``accel``.
+def row_capacity(A, i, qdot, qddot, acc, jerk, vel):  # pragma: no cover - compiled
+    """Row ``i``'s rate ``a . qdot`` (``a = A[i]``) and what the joints, at ``qdot`` and
+    ``qddot`` now under their limits ``vel``, ``acc``, ``jerk``, can do to it, in one pass:
+    ``(rate, accel, decel, ramp, ramp_all, reach)``: the rate and its acceleration ``a .
+    qddot`` now, the largest acceleration it can take, a jerk at which it can always ramp from
+    ``accel`` up to ``decel``, the jerk with every joint ramping (``sum_j |a_j| jerk_j``) and its
+    largest speed (``sum_j |a_j| vel_j``).
 
     Each joint ramps its own acceleration toward its limit on the row's side at its own jerk
-    and stops there, so the row's acceleration rises at ``sum_j |a_j| jerk_j`` only while no
-    joint has reached its limit: a joint already at it (the arm braking or turning hard) gives
-    nothing more. The sum of those ramps is concave in time, so it stays above the straight
-    line from ``accel`` now to ``decel`` when the last joint gets there (``T = max_j (acc_j -
-    sign(a_j) qddot_j) / jerk_j``): ``ramp`` is that line's slope, at most the sum."""
-    decel, ramp, accel = 0.0, 0.0, 0.0
+    and stops there, so the rate's acceleration rises at ``ramp_all`` only while no joint has
+    reached its limit: a joint already at it (the arm braking or turning hard) gives nothing
+    more. The sum of those ramps is concave in time, so it stays above the straight line from
+    ``accel`` now to ``decel = sum_j |a_j| acc_j`` when the last joint gets there (``T = max_j
+    (acc_j - sign(a_j) qddot_j) / jerk_j``): ``ramp`` is that line's slope, at most
+    ``ramp_all``."""
+    rate, accel, decel, ramp_all, reach = 0.0, 0.0, 0.0, 0.0, 0.0
     room_last, jerk_last = 0.0, 1.0  # T = room_last / jerk_last (compared without dividing)
     for j in range(A.shape[1]):
         w = A[i, j]
-        decel += abs(w) * acc[j]
-        ramp += abs(w) * jerk[j]
+        rate += w * qdot[j]
         accel += w * qddot[j]
+        decel += abs(w) * acc[j]
+        ramp_all += abs(w) * jerk[j]
+        reach += abs(w) * vel[j]
         if w != 0.0:
             room = acc[j] - (qddot[j] if w > 0.0 else -qddot[j])
             if room * jerk_last > room_last * jerk[j]:
                 room_last, jerk_last = room, jerk[j]
+    ramp = ramp_all
     if room_last > 0.0 and decel > accel:
-        ramp = min(ramp, (decel - accel) * jerk_last / room_last)
-    return decel, ramp, accel
+        ramp = min(ramp_all, (decel - accel) * jerk_last / room_last)
+    return rate, accel, decel, ramp, ramp_all, reach
 
 
 @numba.njit(cache=True)

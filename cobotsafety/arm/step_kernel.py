@@ -319,20 +319,15 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         stop_decel = min(stop_decel, EE_AXIS_SHARE * ee_acc / ee_speed_prev)
         stop_jerk = min(stop_jerk, EE_AXIS_SHARE * ee_jerk / ee_speed_prev)
     for i in range(count):
-        decel, jerk_n, rate_accel = row_capacity(A, i, qddot_prev, acc, jerk)
+        rate_now, rate_accel, decel, jerk_n, jerk_all, reach = row_capacity(A, i, qdot_prev, qddot_prev, acc, jerk,
+                                                                             vel)
+        own_speed, own_accel = -rate_now, -rate_accel
         if rate[i] < 0.0:
             # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
             # time the arm's approach takes to end, which with the ramp of the joints' state now
             # fell faster than the arm could follow (``test_a_person_faster_than_the_arm...``):
             # their rows keep every joint's jerk, as before ``row_capacity``.
-            jerk_n = 0.0
-            for j in range(nv):
-                jerk_n += abs(A[i, j]) * jerk[j]
-        own_accel = -rate_accel
-        reach, own_speed = 0.0, 0.0
-        for j in range(nv):
-            reach += abs(A[i, j]) * vel[j]
-            own_speed -= A[i, j] * qdot_prev[j]
+            jerk_n = jerk_all
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
