@@ -66,7 +66,7 @@ from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
 STRATEGIES = ("anticipative", "stop", "reactive", "off")
 #: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM's speed scaling; brake to a
-#: stop; SSM's protective stop.
+#: stop; SSM's protective stop; that stop under way in the previous step.
 FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD = 1, 2, 4, 8, 16
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
@@ -324,9 +324,10 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         own_speed, own_accel = -rate_now, -rate_accel
         if rate[i] < 0.0:
             # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
-            # time the arm's approach takes to end, which with the ramp of the joints' state now
-            # fell faster than the arm could follow (``test_a_person_faster_than_the_arm...``):
-            # their rows keep every joint's jerk, as before ``row_capacity``.
+            # time the arm's approach takes to end; with the ramp from the joints' state now that
+            # time jumps as joints reach their limits mid-brake, and the bound fell faster than
+            # the arm could follow (``test_a_person_faster_than_the_arm...``): their rows keep
+            # every joint's jerk, as before ``row_capacity``.
             jerk_n = jerk_all
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
