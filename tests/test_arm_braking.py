@@ -86,6 +86,17 @@ def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_
 
 
 @SETTINGS
+@given(speed=st.floats(0.0, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods)
+def test_braking_distance_exceeds_every_stop_distance_from_the_same_speed(speed, share, decel, jerk, dt):
+    """``D(v)`` (accelerating toward the limitation at the full limit when braking starts) is
+    the longest stop from ``v``, by at least ``7/8 decel dt^2``: ``viable_speed`` answers
+    ``inf`` without its search when ``D`` of the fastest speed in question fits the gap."""
+    margin = 0.875 * decel * dt * dt
+    assert stop_distance(speed, share * decel, decel, jerk, dt) + margin <= braking_distance(speed, decel, jerk, dt) * (
+        1 + 1e-12)
+
+
+@SETTINGS
 @given(speed=st.floats(-1.0, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods)
 def test_stop_distance_bounds_the_simulated_braking_and_is_not_loose(speed, share, decel, jerk, dt):
     accel = share * decel
@@ -157,6 +168,27 @@ def test_viable_speed_is_the_largest_viable_speed(gap, speed, share, decel, jerk
     """Against bisection on its definition, in every regime (the next step braking, easing,
     or accelerating at the full limit, where the bound has a closed form)."""
     accel = share * decel
+    expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
+    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+    if math.isnan(expected) or math.isinf(expected):
+        assert allowed == expected or math.isnan(allowed) and math.isnan(expected)
+    else:
+        assert allowed == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+@settings(SETTINGS, max_examples=300)
+@given(speed=st.floats(-0.5, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods, cap=st.floats(0.05, 4.0),
+       x=st.floats(-0.5, 1.5))
+def test_viable_speed_is_the_largest_viable_speed_where_the_longest_braking_just_fits(speed, share, decel, jerk, dt,
+                                                                                        cap, x):
+    """The same, with the gap around the longest braking from the fastest speed in question
+    (``D(s) + x s dt``), where ``viable_speed`` answers ``inf`` without its search: that
+    shortcut agrees with the definition on both sides of it (fails with the step's own travel
+    ``s dt`` left out of it)."""
+    accel = share * decel
+    s_hi = max(cap, speed + max(accel - jerk * dt, -decel) * dt)
+    gap = braking_distance(s_hi, decel, jerk, dt) + x * s_hi * dt
+    assume(gap > 0.0)
     expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
     allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
     if math.isnan(expected) or math.isinf(expected):

@@ -192,6 +192,12 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
     caller falls back to ``braking_speed`` and smoothness gives way."""
     if gap <= 0.0:
         return np.nan
+    # Far from the limitation (most rows, most steps): the longest braking from the fastest
+    # speed in question, ``D`` above, already fits, so ``f`` below is <= 0 there: ``inf``
+    # without the search (``D`` exceeds every ``stop_distance`` by at least 7/8 decel dt^2).
+    s_far = max(speed_cap, speed + max(accel - jerk * dt_s, -decel) * dt_s)
+    if braking_distance(s_far, decel, jerk, dt_s) + s_far * dt_s <= gap:
+        return np.inf
     s_lo, f_lo = hardest_braking_excess(gap, speed, accel, decel, jerk, dt_s)
     if f_lo > 0.0:
         return np.nan
