@@ -161,6 +161,16 @@ def largest_viable(gap, speed, accel, decel, jerk, dt, cap):
     return lo
 
 
+def assert_the_largest_viable(gap, speed, accel, decel, jerk, dt, cap):
+    """``viable_speed`` equals ``largest_viable`` (both NaN, both inf, or within 1e-9)."""
+    expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
+    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
+    if math.isnan(expected) or math.isinf(expected):
+        assert allowed == expected or math.isnan(allowed) and math.isnan(expected)
+    else:
+        assert allowed == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
 @settings(SETTINGS, max_examples=400)
 @given(gap=st.floats(1e-4, 2.0), speed=st.floats(-0.5, 3.0), share=shares, decel=decels, jerk=jerks, dt=periods,
        cap=st.floats(0.05, 4.0))
@@ -168,12 +178,7 @@ def test_viable_speed_is_the_largest_viable_speed(gap, speed, share, decel, jerk
     """Against bisection on its definition, in every regime (the next step braking, easing,
     or accelerating at the full limit, where the bound has a closed form)."""
     accel = share * decel
-    expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
-    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
-    if math.isnan(expected) or math.isinf(expected):
-        assert allowed == expected or math.isnan(allowed) and math.isnan(expected)
-    else:
-        assert allowed == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert_the_largest_viable(gap, speed, accel, decel, jerk, dt, cap)
 
 
 @settings(SETTINGS, max_examples=300)
@@ -189,12 +194,7 @@ def test_viable_speed_is_the_largest_viable_speed_where_the_longest_braking_just
     s_hi = max(cap, speed + max(accel - jerk * dt, -decel) * dt)
     gap = braking_distance(s_hi, decel, jerk, dt) + x * s_hi * dt
     assume(gap > 0.0)
-    expected = largest_viable(gap, speed, accel, decel, jerk, dt, cap)
-    allowed = viable_speed(gap, speed, accel, decel, jerk, dt, cap)
-    if math.isnan(expected) or math.isinf(expected):
-        assert allowed == expected or math.isnan(allowed) and math.isnan(expected)
-    else:
-        assert allowed == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert_the_largest_viable(gap, speed, accel, decel, jerk, dt, cap)
 
 
 @settings(SETTINGS, max_examples=100)
