@@ -168,13 +168,19 @@ def arm_stop_time(qdot, qddot, ee_velocity, acc, jerk, ee_axis_acc, ee_axis_jerk
     return max(longest, stop_time(hand + ee_axis_acc * dt_s, ee_axis_acc, ee_axis_acc, ee_axis_jerk, dt_s))
 
 
+@numba.njit(cache=True, inline="always")
+def hardest_braking(speed, accel, decel, jerk, dt_s):  # pragma: no cover - compiled
+    """``(lo, s_lo)``: the hardest braking the limits allow now (``accel - jerk dt``, at least
+    ``-decel``) and the next step's approach speed under it."""
+    lo = max(accel - jerk * dt_s, -decel)
+    return lo, speed + lo * dt_s
+
+
 @numba.njit(cache=True)
 def hardest_braking_excess(gap, speed, accel, decel, jerk, dt_s):  # pragma: no cover - compiled
-    """``(s_lo, f)``: the next step's approach speed under the hardest braking the limits allow
-    now (``accel - jerk dt``, at least ``-decel``), and how far beyond ``gap`` its stop still
-    goes (``f > 0``: not viable, whatever the next step does)."""
-    lo = max(accel - jerk * dt_s, -decel)
-    s_lo = speed + lo * dt_s
+    """``(s_lo, f)``: the next step's approach speed under ``hardest_braking``, and how far
+    beyond ``gap`` its stop still goes (``f > 0``: not viable, whatever the next step does)."""
+    lo, s_lo = hardest_braking(speed, accel, decel, jerk, dt_s)
     return s_lo, stop_distance(s_lo, lo, decel, jerk, dt_s) + s_lo * dt_s - gap
 
 
@@ -195,7 +201,7 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
     # Far from the limitation (most rows, most steps): the longest braking from the fastest
     # speed in question, ``D`` above, already fits, so ``f`` below is <= 0 there: ``inf``
     # without the search (``D`` exceeds every ``stop_distance`` by at least 7/8 decel dt^2).
-    s_far = max(speed_cap, speed + max(accel - jerk * dt_s, -decel) * dt_s)
+    s_far = max(speed_cap, hardest_braking(speed, accel, decel, jerk, dt_s)[1])
     if braking_distance(s_far, decel, jerk, dt_s) + s_far * dt_s <= gap:
         return np.inf
     s_lo, f_lo = hardest_braking_excess(gap, speed, accel, decel, jerk, dt_s)

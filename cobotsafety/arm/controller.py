@@ -243,7 +243,6 @@ class ArmController:
         self.yield_until_s = -math.inf
         self.contradictions = 0
         self.smoothness_steps = 0
-        self._protective = False  # the last step ended in SSM's protective stop
         self.last_report: StepReport | None = None
 
     @property
@@ -386,7 +385,8 @@ class ArmController:
         ssm_flags = _SSM_FLAGS.get(self.ssm)
         if ssm_flags is None:
             raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
-        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if self._protective else 0)
+        held = self.last_report is not None and self.last_report.protective_stop  # a stop under way
+        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if held else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.out_f  # the previous step's output: the kinematics at q
@@ -398,7 +398,6 @@ class ArmController:
         self.clock_s += dt_s
         self.state.refresh(out_f, self._offsets)
         _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
-        self._protective = protective != 0
         stopped = stopped != 0
         relaxed = level in (2, 3) and relaxed_rows > 0
         if level:
