@@ -98,6 +98,27 @@ def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
     assert not escape_exists("iiwa", held, t, 1.5, trapped, 0.0, critical_m=0.1).exists
 
 
+def test_an_escape_that_needed_the_arm_to_move_before_the_person_was_seen_is_not_one_after_detection():
+    """The person of the test above, seen only once they stand at the hand: from the window's
+    start (1 s before) the arm had time to get away, from their detection it has none; and the
+    detection time is the start of the unbroken stretch of sightings up to the closest moment."""
+    from cobotsafety.arm.controller import ArmController
+    from cobotsafety.tools.campaign.person_run import detection_time_s
+
+    state = ArmController("iiwa", zones=[], capsules="paper").state
+    q_home, p_ee = state.q.copy(), state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))  # standing at the hand from 1.125 s
+    t = np.arange(0.01, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    seen = np.where((t > 0.2) & (t < 0.3) | (t > 1.2), 0.5, np.inf)  # a glimpse, then from 1.2 s on
+    detected = detection_time_s(t, seen, 1.5, 0.01)
+    assert detected == pytest.approx(1.2, abs=1e-9)
+    assert detection_time_s(t, np.where(t < 1.45, 0.5, np.inf), 1.5, 0.01) is None  # lost at the closest moment
+    assert escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1).exists
+    late = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, earliest_s=detected)
+    assert late.window_s[0] == pytest.approx(detected) and not late.exists
+
+
 def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
     velocity and acceleration limits and keeps the true separation (at most 1 cm below the

@@ -18,7 +18,9 @@ at the acceleration limits; SLSQP starts from the best) reaches the critical dis
 search is local: an escape found is certain (``Escape.witness_rad_s``, its knot velocities),
 "none" is the best SLSQP found, so ``breaches_with_escape`` is a lower bound. The window is a
 stated choice: the controller could have started earlier, so "no escape in the window" does not
-prove none existed before it.
+prove none existed before it. ``earliest_s`` starts the window later (never earlier): the
+campaign asks again from the moment the controller first saw the person, for the breaches whose
+escape needed the arm to move before anyone was seen (perception's share, not the controller's).
 """
 
 from __future__ import annotations
@@ -111,11 +113,12 @@ def _reach(v_start: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndar
 
 def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s: float, truth: TruthHuman,
                   truth_offset_s: float, critical_m: float, capsules: str = "paper", maxiter: int = 40,
-                  kinematics: _Kinematics | None = None) -> Escape:
+                  kinematics: _Kinematics | None = None, earliest_s: float | None = None) -> Escape:
     """Search the window around ``t_closest_s`` (run clock) for a motion keeping the true
-    separation >= ``critical_m``; ``q_log`` (n, nq) at ``t_log`` (n,) is the run's trajectory."""
+    separation >= ``critical_m``; ``q_log`` (n, nq) at ``t_log`` (n,) is the run's trajectory;
+    the window starts ``LOOKBACK_S`` before ``t_closest_s``, or at ``earliest_s`` when later."""
     kin = kinematics or _Kinematics(robot, capsules)
-    t0 = max(float(t_log[0]), t_closest_s - LOOKBACK_S)
+    t0 = max(float(t_log[0]), t_closest_s - LOOKBACK_S, -np.inf if earliest_s is None else float(earliest_s))
     t1 = t_closest_s + LOOKAHEAD_S
     window = max(t1 - t0, 1e-3)
     i0 = int(np.clip(np.searchsorted(t_log, t0), 0, len(t_log) - 1))

@@ -24,7 +24,7 @@ from cobotsafety.experiments import approach_settings as settings
 TIMEOUT_EXTRA_S = 30.0
 RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_distance_m", "seen_min_distance_m",
                "estimate_error_at_closest_m", "closest_time_s", "breach", "escape_exists",
-               "escape_best_min_distance_m", "completed", "completion_time_s", "time_lost_s", "peak_ee_speed_m_s",
+               "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s", "completed", "completion_time_s", "time_lost_s", "peak_ee_speed_m_s",
                "max_joint_acceleration_ratio", "stopped_time_s", "protective_stop_time_s")
 
 
@@ -68,6 +68,18 @@ def draw_scene(index: int, seed: int):
     return scene, drawn, int(rng.integers(2**31 - 1))
 
 
+def detection_time_s(t_s: np.ndarray, seen_m: np.ndarray, closest_s: float, dt_s: float) -> float | None:
+    """When the controller began to see someone without a break up to the closest moment [s]
+    (the start of the first step of that stretch; ``seen_m`` is inf when it saw nobody, ``t_s``
+    each step's end), or None when it saw nobody at the closest moment."""
+    k = int(np.clip(np.searchsorted(t_s, closest_s - 0.5 * dt_s), 0, len(t_s) - 1))
+    if not np.isfinite(seen_m[k]):
+        return None
+    unseen = np.flatnonzero(~np.isfinite(seen_m[:k + 1]))
+    first = int(unseen[-1]) + 1 if unseen.size else 0
+    return float(t_s[first]) - dt_s
+
+
 def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], dt_s: float = 1 / settings.CONTROL_RATE_HZ,
                escape_check: bool = True, nominal_s: float | None = None) -> list[dict]:
     """One result dict (``RESULT_KEYS``) per controller for person ``index``; ``nominal_s``:
@@ -94,11 +106,18 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
         m = episode_metrics(log, dt_s, controller)
         true_min = m.min_distance_true_m
         breach = bool(true_min is not None and true_min < settings.CRITICAL_M)
-        escape = best = None
+        escape = best = after = detected = None
         if breach and escape_check:
-            found = escape_exists(robot, np.array(log.q_rad), np.array(log.t_s), m.closest_time_s, truth,
-                                  replay.start_s, settings.CRITICAL_M)
+            q_log, t_log = np.array(log.q_rad), np.array(log.t_s)
+            found = escape_exists(robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M)
             escape, best = found.exists, round(found.best_min_distance_m, 4)
+            detected_s = detection_time_s(t_log, np.array(log.seen_m), m.closest_time_s, dt_s)
+            detected = None if detected_s is None else round(m.closest_time_s - detected_s, 4)
+            after = escape
+            if escape and (detected_s is None or detected_s > found.window_s[0]):
+                after = detected_s is not None and escape_exists(
+                    robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M,
+                    earliest_s=detected_s).exists
         completed = m.completion_time_s is not None
         results.append({
             "robot": robot, "controller": name, "person": index, "seed": seed, "drawn": drawn,
@@ -107,6 +126,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "estimate_error_at_closest_m": None if m.estimate_error_at_closest_m is None else round(m.estimate_error_at_closest_m, 4),
             "closest_time_s": None if m.closest_time_s is None else round(m.closest_time_s, 4),
             "breach": breach, "escape_exists": escape, "escape_best_min_distance_m": best,
+            "escape_after_detection": after, "detected_before_closest_s": detected,
             "completed": completed,
             "completion_time_s": round(m.completion_time_s, 4) if completed else None,
             "time_lost_s": round(m.completion_time_s - nominal, 4) if completed else None,
