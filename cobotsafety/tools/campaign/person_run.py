@@ -24,8 +24,9 @@ from cobotsafety.experiments import approach_settings as settings
 TIMEOUT_EXTRA_S = 30.0
 RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_distance_m", "seen_min_distance_m",
                "estimate_error_at_closest_m", "closest_time_s", "breach", "escape_exists",
-               "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s", "completed", "completion_time_s", "time_lost_s", "peak_ee_speed_m_s",
-               "max_joint_acceleration_ratio", "stopped_time_s", "protective_stop_time_s")
+               "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s", "completed",
+               "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
+               "stopped_time_s", "protective_stop_time_s")
 
 
 def campaign_task(home_m: np.ndarray):
@@ -88,7 +89,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
     from cobotsafety.experiments.approach_truth import TruthHuman
     from cobotsafety.experiments.human_approach import HumanSeries, episode_metrics, run_episode
     from cobotsafety.human.replay import Replay
-    from cobotsafety.tools.campaign.escape import escape_exists
+    from cobotsafety.tools.campaign.escape import _Kinematics, escape_exists
     from cobotsafety.tools.generate_recording import generate
 
     scene, drawn, generator_seed = draw_scene(index, seed)
@@ -109,7 +110,9 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
         escape = best = after = detected = None
         if breach and escape_check:
             q_log, t_log = np.array(log.q_rad), np.array(log.t_s)
-            found = escape_exists(robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M)
+            kin = _Kinematics(robot)  # one robot model for both searches
+            found = escape_exists(robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M,
+                                  kinematics=kin)
             escape, best = found.exists, round(found.best_min_distance_m, 4)
             detected_s = detection_time_s(t_log, np.array(log.seen_m), m.closest_time_s, dt_s)
             detected = None if detected_s is None else round(m.closest_time_s - detected_s, 4)
@@ -117,7 +120,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             if escape and (detected_s is None or detected_s > found.window_s[0]):
                 after = detected_s is not None and escape_exists(
                     robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M,
-                    earliest_s=detected_s).exists
+                    kinematics=kin, earliest_s=detected_s).exists
         completed = m.completion_time_s is not None
         results.append({
             "robot": robot, "controller": name, "person": index, "seed": seed, "drawn": drawn,
