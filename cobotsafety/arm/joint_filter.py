@@ -15,11 +15,14 @@ hand deviation) before it slides the hand. ``B = I`` and ``q0`` a joint velocity
 plain projection of that velocity (paper 2's field, sliding off the limitations).
 
 Every row is a half-space ``a . qdot >= b`` (``tests/test_arm_joint_filter.py`` holds the
-result equal to quadprog's on random problems), in four groups by priority:
+result equal to quadprog's on random problems), in five groups by priority:
 
 * ``LIMITATION``: each limitation's *safety* bound, the approach from which the arm can still
   brake before it with its full motion limits (``braking.safe_speed``), and the robot's own
   end-effector speed limit: hard;
+* ``RECOVERY``: the safety bound of a limitation the arm is already inside (its buffer) with
+  nothing walking at it, drifting out at the recovery gain: hard down to "approach nothing";
+  its retreat beyond that gives way before the motion limits do (a retreat is not a stop);
 * ``VELOCITY``: each joint's speed limit: hard;
 * ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
   velocities the next step may take from the previous one;
@@ -31,7 +34,9 @@ result equal to quadprog's on random problems), in four groups by priority:
 
 Priorities, from the strictest: the hard rows always; then the motion rows (the plan's margin
 gives way first, by least squares, ``least_distance.relax_kernel``); then, only when the hard
-rows need it, the motion rows too (safety wins over smoothness: each such step is counted);
+rows need it, the motion rows too (safety wins over smoothness: each such step is counted) —
+but when the hard rows agree, the recoveries' retreats give way first, each down to "approach
+nothing", and the motion limits then only as far as going no deeper needs;
 when the hard rows contradict each other, the limitations' retreats (bounds > 0: a human
 closing in, a limit already inside its buffer) give way too, each down to "approach nothing";
 when that fails, every limitation is held at "approach nothing"; when that fails too, the arm
@@ -46,7 +51,7 @@ import numpy as np
 from cobotsafety.least_distance import RELAX_DONE, RELAXATION_COMMAND_WEIGHT, relax_kernel
 from cobotsafety.small_linalg import matvec
 
-LIMITATION, VELOCITY, MOTION, PLAN = 0, 1, 2, 3
+LIMITATION, VELOCITY, MOTION, PLAN, RECOVERY = 0, 1, 2, 3, 4
 #: How the filter ended: within the motion limits; motion limits given up for safety; retreats
 #: relaxed; approaching nothing; stopped.
 LEVEL_EXACT, LEVEL_SMOOTHNESS, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3, 4
@@ -84,8 +89,13 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
         h[i] = b[i] - s
     soft = np.zeros(count, dtype=np.bool_)
     floors = np.full(count, -np.inf)
+    eased = h.copy()  # the recoveries at "approach nothing" (a . qdot >= 0)
+    recovering = False
     for i in range(count):
         soft[i] = group[i] == PLAN
+        if group[i] == RECOVERY and b[i] > 0.0:
+            eased[i] = -base[i]
+            recovering = True
     if first_level <= LEVEL_EXACT:
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
         if done:
@@ -94,13 +104,33 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
         soft[i] = group[i] == PLAN or group[i] == MOTION
     if first_level <= LEVEL_SMOOTHNESS:
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
+        if done and recovering:
+            # The retreats agree once the motion limits give way: the recoveries' give way
+            # instead (each down to approach nothing, the motion limits kept), and when that
+            # is not enough the motion limits give way only for approaching nothing.
+            if first_level <= LEVEL_EXACT:
+                relaxable = np.zeros(count, dtype=np.bool_)
+                for i in range(count):
+                    relaxable[i] = group[i] == PLAN or eased[i] != h[i]
+                    if eased[i] != h[i]:
+                        floors[i] = eased[i]
+                eased_qdot, eased_violation, eased_done = _relax(q0, B, G, h, relaxable, floors)
+                for i in range(count):
+                    floors[i] = -np.inf
+                if eased_done:
+                    return eased_qdot, eased_violation, LEVEL_EXACT
+            eased_qdot, eased_violation, eased_done = _relax(q0, B, G, eased, soft, floors)
+            if eased_done:
+                for i in range(count):
+                    eased_violation[i] += h[i] - eased[i]
+                return eased_qdot, eased_violation, LEVEL_SMOOTHNESS
         if done:
             return qdot, violation, LEVEL_SMOOTHNESS
     if first_level <= LEVEL_RELAXED:
         relaxable = soft.copy()
         any_retreat = False
         for i in range(count):
-            if group[i] == LIMITATION and b[i] > 0.0:
+            if (group[i] == LIMITATION or group[i] == RECOVERY) and b[i] > 0.0:
                 relaxable[i] = True
                 floors[i] = -base[i]  # a . qdot >= 0: approach nothing
                 any_retreat = True
@@ -112,7 +142,7 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
             floors[i] = -np.inf
     lowered = h.copy()
     for i in range(count):
-        if (group[i] == LIMITATION or group[i] == PLAN) and b[i] > 0.0:
+        if (group[i] == LIMITATION or group[i] == RECOVERY or group[i] == PLAN) and b[i] > 0.0:
             lowered[i] = -base[i]
     qdot, violation, done = _relax(q0, B, G, lowered, soft, floors)
     if done:

@@ -54,7 +54,8 @@ import numpy as np
 
 from cobotsafety.arm.braking import arm_stop_time, positive_root, row_capacity, safe_speed, stop_time
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
-                                          LEVEL_STOPPED, LIMITATION, MOTION, PLAN, SPEED_CUTS, VELOCITY, filter_rows)
+                                          LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY, SPEED_CUTS, VELOCITY,
+                                          filter_rows)
 from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
@@ -280,13 +281,14 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 @numba.njit(cache=True)
 def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
                       dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
-                      width_m, width_rad, speed_cap, ssm, ssm_params, plan, keep_plan, safety,
-                      keep_safety):  # pragma: no cover - compiled
+                      width_m, width_rad, speed_cap, retreat_cap, ssm, ssm_params, plan, keep_plan, safety,
+                      keep_safety, recovering):  # pragma: no cover - compiled
     """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
     limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
     motion limits) into ``safety``; ``keep_*`` False for rows no velocity within the joints'
-    limits can break. Returns the largest factor by which a safety bound had to exceed the
-    motion limits (1: none).
+    limits can break; ``recovering`` True for a safety bound that drifts out of a limitation
+    with nothing walking at it (the filter's ``RECOVERY`` rows). Returns the largest factor by
+    which a safety bound had to exceed the motion limits (1: none).
 
     Outside the buffer: approach no faster than the arm can brake before the limitation from
     its approach speed and acceleration now (``braking.safe_speed``: beyond reach, with the least
@@ -304,7 +306,8 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
     inside the buffer braking toward standstill at the full limits: the arm need not outrun a
     person, it must be able to stop for them. With SSM the arm's own approach to a human
     (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
-    15066's speed for that separation. A retreat never asks for more than the speed cap. A
+    15066's speed for that separation. A retreat never asks for more than the speed cap, from a
+    person walking at the arm no more than ``retreat_cap``. A
     limitation whose curvature pulls the sliding arm toward it (``pull`` [m/s^2] > 0 at the
     arm's velocity now, the kind's own: the extended reach) adds that pull to the approach's
     acceleration and takes it from the deceleration the brake has along the row."""
@@ -337,7 +340,7 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
             # approach's acceleration, and held against by the brake while the arm slides on.
             own_accel += pull[i]
             decel = max(decel - pull[i], PULL_FLOOR * decel)
-        keep_plan[i], keep_safety[i] = False, False
+        keep_plan[i], keep_safety[i], recovering[i] = False, False, False
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
             continue  # a row the joints cannot move: no half-space on the command
@@ -349,13 +352,14 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         plan_jerk *= brake_share
         gap = dist[i] - (buffer_rad if angular[i] else buffer_m)
         human_closing = -min(rate[i], 0.0)
-        cap = speed_cap if not angular[i] else 0.5 * reach
+        cap = 0.5 * reach if angular[i] else (retreat_cap if human_closing > 0.0 else speed_cap)
         if gap <= 0.0:
             plan_bound = -recovery_gain * gap + human_closing
             if human_closing > 0.0:  # inside a moving person's distance: brake to standstill at the limits
                 safety_bound = -max(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s, 0.0)
             else:
                 safety_bound = -recovery_gain * gap
+                recovering[i] = True
         else:
             # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
             # the braking model starts from the rate the command gives and the pull on top)
@@ -582,12 +586,26 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     keep = np.ones(m, dtype=np.bool_)
     safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
     safe_keep = np.ones(m, dtype=np.bool_)
+    recovering = np.zeros(m, dtype=np.bool_)
     ee_velocity_prev = matvec(J, qdot_prev)
     ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
+    # The command's cap bounds what the user asks for; from a person walking at the arm the
+    # anticipative arm may flee faster, at the plan's share of the robot's own end-effector
+    # speed (``brake_share``: the rest in reserve, as for braking; at the command's cap a
+    # retreat went at 0.5 m/s from people coming at 1-2 m/s).
+    flee_cap = max(speed_cap, brake_share * ee_speed)
     brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, m, q0, qdot_prev, qddot_prev,
                                      ee_speed_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m,
-                                     buffer_rad, recovery_gain, width_m, width_rad, speed_cap, ssm, ssm_params,
-                                     bounds, keep, safe_bounds, safe_keep)
+                                     buffer_rad, recovery_gain, width_m, width_rad, speed_cap, flee_cap,
+                                     ssm, ssm_params, bounds, keep, safe_bounds, safe_keep, recovering)
+    # Fleeing: a human row closing (kept), or a hand still faster than the command's cap next to
+    # a person (it slows down within its limits when they stop).
+    hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
+    fleeing = False
+    if strategy == ANTICIPATIVE:
+        for i in range(m):
+            if is_human[i] and keep[i] and (rate[i] < 0.0 or hand_speed > speed_cap):
+                fleeing = True
     if ssm_stop and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
         # A stop already under way holds until S at the speed cap, the speed the arm may take
@@ -641,7 +659,8 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             if with_safety:
                 for j in range(nv):
                     N[count, j] = A[i, j]
-                b[count], group[count], code[count] = safety, LIMITATION, row
+                b[count], code[count] = safety, row
+                group[count] = RECOVERY if recovering[i] and safety > 0.0 else LIMITATION
                 count += 1
             if with_plan and (plan > safety or not with_safety):
                 for j in range(nv):
@@ -680,14 +699,14 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             code[count] = row_code(OWNER_EE_MOTION, r, side)
             count += 1
     # ---- 5. filter -----------------------------------------------------------------------------
-    cap = speed_cap if strategy != OFF else ee_speed
+    flee_cap = max(speed_cap, brake_share * ee_speed)
+    cap = ee_speed if strategy == OFF else (flee_cap if fleeing else speed_cap)
     if strategy != OFF:
         # Toward the cap the hand's acceleration must ramp down at its jerk limit before it
         # gets there, as ``motion_box`` asks of a joint toward its speed limit: this step's cap
         # is at most the speed from which that ramp still ends at the cap (the hand levels off
         # a little under it, by half the speed its curving path loses per step at a constant
         # joint velocity: ~2e-4 of it on the panda at 2 ms).
-        hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
         room = cap - hand_speed
         if room > 0.0:
             cap = min(cap, hand_speed + ramp_acceleration(room, EE_AXIS_SHARE * ee_jerk, dt_s) * dt_s)
