@@ -6,13 +6,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.optimize
 
 from cobotsafety.arm.joint_filter import (LEVEL_EXACT, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LIMITATION, MOTION, PLAN,
-                                          SPEED_CUTS, VELOCITY, filter_rows)
+                                          RECOVERY, SPEED_CUTS, VELOCITY, filter_rows)
 from oracles.joint_filter import filter_qp, lexicographic_qp
 from oracles.projection import kkt_residual, paper_rule_2d
 
 NO_CAP = np.inf
+
+
+def filtered(q0, B, N, b, group, count, J, speed_cap, speed_limit, ramp=None):
+    """``filter_rows`` with the recoveries easing straight to approach nothing (``ramp`` None)."""
+    ramp = np.zeros(len(b)) if ramp is None else ramp
+    return filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit)
 
 
 def tolerance(B: np.ndarray) -> float:
@@ -66,7 +73,7 @@ def test_hard_rows_equal_the_quadprog_qp_on_random_problems():
         J, B, q0 = task(rng, nv)
         feasible = rng.uniform(-1.5, 1.5, nv)
         N, b, group, count = rows(hard_problem(rng, nv, feasible, feasible + rng.normal(size=nv) * 0.1), nv)
-        qdot, violation, level, used = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
+        qdot, violation, level, used = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
         assert level == LEVEL_EXACT and used == count and not violation.any()
         binding += np.any(N[:count] @ q0 < b[:count])
         try:
@@ -103,7 +110,7 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
             found.append((PLAN, a, a @ q_prev + rng.uniform(0.5, 2.0)))
             soft_groups, level_expected = (PLAN,), LEVEL_EXACT
         N, b, group, count = rows(found, nv)
-        qdot, violation, level, _ = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
+        qdot, violation, level, _ = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
         try:  # the box may be wide enough for the new row: then every row holds
             exact = filter_qp(q0, B, N[:count], b[:count])
         except ValueError:
@@ -137,6 +144,81 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
     assert tested[LEVEL_SMOOTHNESS] > 100 and tested[LEVEL_EXACT] > 150 and tested["feasible"] > 0, tested
 
 
+def test_a_recovery_gives_way_before_the_motion_limits():
+    """A limitation the arm is inside, drifting out (``RECOVERY``) faster than the motion box
+    allows, on problems where the whole retreat agrees with the other hard rows once the box
+    gives way (else the retreats contradict: another level). The motion box holds (level exact)
+    while the retreat gives way to its ``ramp`` (what it can grow to this step; half the cases)
+    or, beyond the box too, to approach nothing (quadprog's QP with the row at that bound);
+    when even approaching nothing is beyond the box, the motion rows give way for that only
+    (by least squares: quadprog's two stages). How far the box lets the arm out decides which
+    (scipy's LP). The same row as ``LIMITATION`` gives up smoothness instead (what the level
+    assertion catches when the group is ignored)."""
+    rng = np.random.default_rng(47)
+    tested = {"ramp": 0, "approach nothing": 0, "smoothness": 0}
+    for k in range(800):
+        nv = int(rng.integers(3, 8))
+        J, B, q0 = task(rng, nv)
+        q_prev = rng.uniform(-0.5, 0.5, nv)
+        found = hard_problem(rng, nv, q_prev, q_prev)
+        a = rng.normal(size=nv)
+        if k % 2 == 0:  # approaching nothing is within the box (q_prev itself does not approach)
+            a *= np.sign(a @ q_prev) or 1.0
+        else:  # the arm approaches it now by more than the box can take back
+            a *= -(np.sign(a @ q_prev) or 1.0)
+        retreat = abs(a @ q_prev) + rng.uniform(0.5, 2.0)
+        found.append((RECOVERY, a, retreat))
+        N, b, group, count = rows(found, nv)
+        ramp = np.zeros(len(b))
+        if k % 4 < 2:
+            ramp[count - 1] = rng.uniform(0.0, abs(a @ q_prev) + 0.1)
+        try:
+            filter_qp(q0, B, N[:count], b[:count])
+            continue  # the box is wide enough for the whole retreat: nothing gives way
+        except ValueError:
+            pass
+        try:  # does the retreat agree with the other hard rows when the motion box gives way?
+            lexicographic_qp(q0, B, N[:count], b[:count], group[:count] == MOTION)
+        except ValueError:  # no: the retreats contradict (the relaxed level's case)
+            continue
+        # How far the arm can go out of it within the box (every other row hard).
+        others = np.arange(count - 1)
+        lp = scipy.optimize.linprog(-a, A_ub=-N[others], b_ub=-b[others], bounds=(None, None), method="highs")
+        out = -lp.fun
+        if not lp.success or min(abs(out), abs(out - ramp[count - 1])) < 1e-6:
+            continue  # borderline: either answer is right
+        eased = b[:count].copy()
+        if out > ramp[count - 1] > 0.0:
+            case, eased[-1] = "ramp", ramp[count - 1]
+        elif out > 0.0:
+            case, eased[-1] = "approach nothing", 0.0
+        else:
+            case, eased[-1] = "smoothness", 0.0
+        try:
+            if case == "smoothness":
+                expected, violation_qp = lexicographic_qp(q0, B, N[:count], eased, group[:count] == MOTION)
+            else:
+                expected, violation_qp = filter_qp(q0, B, N[:count], eased), np.zeros(count)
+        except ValueError:  # quadprog gives up on a degenerate vertex (narrow boxes)
+            continue
+        violation_qp[-1] = retreat - eased[-1]
+        qdot, violation, level, _ = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP,
+                                             ramp=ramp)
+        assert level == (LEVEL_SMOOTHNESS if case == "smoothness" else LEVEL_EXACT), (k, case)
+        np.testing.assert_allclose(violation[:count], violation_qp, rtol=0, atol=1e-5)
+        np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-4)
+        assert a @ qdot >= eased[-1] - 1e-6 * retreat  # never deeper; out at the ramp when it can
+        if level == LEVEL_EXACT:  # within the motion box
+            motion = group[:count] == MOTION
+            assert np.all(N[:count][motion] @ qdot >= b[:count][motion] - 1e-6)
+        tested[case] += 1
+        group_hard = group.copy()
+        group_hard[count - 1] = LIMITATION
+        _, _, level_hard, _ = filtered(q0, B, N.copy(), b.copy(), group_hard, count, J, NO_CAP, NO_CAP)
+        assert level_hard != LEVEL_EXACT
+    assert min(tested.values()) > 40, tested  # seed 47: 133, 145 and 49
+
+
 def test_nothing_binds_gives_the_command_exactly():
     rng = np.random.default_rng(43)
     for _ in range(500):
@@ -145,7 +227,7 @@ def test_nothing_binds_gives_the_command_exactly():
         found = hard_problem(rng, nv, q0, q0)
         found = [(g, a, min(x, a @ q0)) for g, a, x in found]  # every row holds at q0
         N, b, group, count = rows(found, nv)
-        qdot, violation, level, used = filter_rows(q0, B, N, b, group, count, J, 10.0, 10.0)
+        qdot, violation, level, used = filtered(q0, B, N, b, group, count, J, 10.0, 10.0)
         np.testing.assert_array_equal(qdot, q0)
         assert level == LEVEL_EXACT and used == count and not violation.any()
 
@@ -161,7 +243,7 @@ def test_in_2d_with_hard_limits_it_is_paper_1s_rule():
         v = rng.normal(size=2)
         limitations = rng.normal(size=(int(rng.integers(1, 3)), 2))  # at most two, as the paper
         N, b, group, count = rows([(LIMITATION, a, 0.0) for a in limitations], 2)
-        qdot, _, level, _ = filter_rows(M @ v, M, N, b, group, count, np.zeros((3, 2)), NO_CAP, NO_CAP)
+        qdot, _, level, _ = filtered(M @ v, M, N, b, group, count, np.zeros((3, 2)), NO_CAP, NO_CAP)
         unit = limitations @ M
         unit /= np.linalg.norm(unit, axis=1, keepdims=True)
         if len(unit) == 2 and unit[0] @ unit[1] < -1.0 + 1e-6:
@@ -176,7 +258,7 @@ def test_the_speed_cap_is_a_norm(direction):
     cap = 0.25
     u = np.array(direction) / np.linalg.norm(direction)
     N, b, group, count = rows([], 3)
-    qdot, _, _, used = filter_rows(2.0 * cap * u, np.eye(3), N, b, group, count, np.eye(3), cap, 2.0 * cap)
+    qdot, _, _, used = filtered(2.0 * cap * u, np.eye(3), N, b, group, count, np.eye(3), cap, 2.0 * cap)
     assert np.linalg.norm(qdot) == pytest.approx(cap, rel=1e-9)
     np.testing.assert_allclose(qdot / np.linalg.norm(qdot), u, atol=1e-9)  # straight down the command
     assert used == 1
@@ -185,7 +267,7 @@ def test_the_speed_cap_is_a_norm(direction):
         J, B, _ = task(rng, 7)
         q0 = np.linalg.pinv(J) @ (3.0 * cap * u)
         N, b, group, count = rows([], 7)
-        qdot, _, _, _ = filter_rows(q0, B, N, b, group, count, J, cap, 2.0 * cap)
+        qdot, _, _, _ = filtered(q0, B, N, b, group, count, J, cap, 2.0 * cap)
         assert np.linalg.norm(J @ qdot) == pytest.approx(cap, rel=1e-6)
 
 
@@ -206,7 +288,7 @@ def test_contradicting_retreats_are_relaxed_down_to_approaching_nothing():
                 e[j] = sign
                 found.append((VELOCITY, e, -2.0))
         N, b, group, count = rows(found, nv)
-        qdot, violation, level, _ = filter_rows(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
+        qdot, violation, level, _ = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
         if level != LEVEL_RELAXED:
             continue
         # Approach nothing, within the speed limits: to relax_kernel's acceptance (1e-6 of the

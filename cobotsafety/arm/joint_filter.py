@@ -22,7 +22,8 @@ result equal to quadprog's on random problems), in five groups by priority:
   end-effector speed limit: hard;
 * ``RECOVERY``: the safety bound of a limitation the arm is already inside (its buffer) with
   nothing walking at it, drifting out at the recovery gain: hard down to "approach nothing";
-  its retreat beyond that gives way before the motion limits do (a retreat is not a stop);
+  its retreat gives way (to what it can grow to in a step, then to that) before the motion
+  limits do (a retreat is not a stop);
 * ``VELOCITY``: each joint's speed limit: hard;
 * ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
   velocities the next step may take from the previous one;
@@ -35,7 +36,7 @@ result equal to quadprog's on random problems), in five groups by priority:
 Priorities, from the strictest: the hard rows always; then the motion rows (the plan's margin
 gives way first, by least squares, ``least_distance.relax_kernel``); then, only when the hard
 rows need it, the motion rows too (safety wins over smoothness: each such step is counted) —
-but when the hard rows agree, the recoveries' retreats give way first, each down to "approach
+but when the hard rows agree, the recoveries' retreats give way first, down to "approach
 nothing", and the motion limits then only as far as going no deeper needs;
 when the hard rows contradict each other, the limitations' retreats (bounds > 0: a human
 closing in, a limit already inside its buffer) give way too, each down to "approach nothing";
@@ -69,9 +70,11 @@ def _relax(q0, B, G, h, soft, floors):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compiled
+def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - compiled
     """One solve of the rows ``[:count]`` at the priorities above, from level ``first_level``
-    on (the cut loop keeps a level once reached): ``(qdot, violation (count,), level)``."""
+    on (the cut loop keeps a level once reached): ``(qdot, violation (count,), level)``.
+    ``ramp``: the bound each ``RECOVERY`` row gives way to first (what its retreat can grow to
+    this step), then to approach nothing."""
     nv, nz = B.shape
     G = np.zeros((count, nz))
     h = np.empty(count)
@@ -106,19 +109,31 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
         if done and recovering:
             # The retreats agree once the motion limits give way: the recoveries' give way
-            # instead (each down to approach nothing, the motion limits kept), and when that
-            # is not enough the motion limits give way only for approaching nothing.
+            # instead, the motion limits kept, to what their retreat can grow to this step
+            # (``ramp``), then to approach nothing (asked again in full next step); when that
+            # is not enough the motion limits give way only for approaching nothing. (Not by
+            # least squares: the arm would spin its body at the joints' speed limits for
+            # micrometres of retreat.)
             if first_level <= LEVEL_EXACT:
-                relaxable = np.zeros(count, dtype=np.bool_)
                 for i in range(count):
-                    relaxable[i] = group[i] == PLAN or eased[i] != h[i]
-                    if eased[i] != h[i]:
-                        floors[i] = eased[i]
-                eased_qdot, eased_violation, eased_done = _relax(q0, B, G, h, relaxable, floors)
+                    soft[i] = group[i] == PLAN
+                ramped = eased.copy()
+                ramping = False
                 for i in range(count):
-                    floors[i] = -np.inf
-                if eased_done:
-                    return eased_qdot, eased_violation, LEVEL_EXACT
+                    if eased[i] != h[i] and ramp[i] > 0.0:
+                        ramped[i] = min(ramp[i], b[i]) - base[i]
+                        ramping = True
+                for attempt in range(2):
+                    lowered = ramped if attempt == 0 else eased
+                    if attempt == 0 and not ramping:
+                        continue
+                    eased_qdot, eased_violation, eased_done = _relax(q0, B, G, lowered, soft, floors)
+                    if eased_done:
+                        for i in range(count):
+                            eased_violation[i] += h[i] - lowered[i]
+                        return eased_qdot, eased_violation, LEVEL_EXACT
+                for i in range(count):
+                    soft[i] = group[i] == PLAN or group[i] == MOTION
             eased_qdot, eased_violation, eased_done = _relax(q0, B, G, eased, soft, floors)
             if eased_done:
                 for i in range(count):
@@ -153,16 +168,18 @@ def _solve(q0, B, N, b, group, count, first_level):  # pragma: no cover - compil
 
 
 @numba.njit(cache=True)
-def filter_rows(q0, B, N, b, group, count, J, speed_cap, speed_limit):  # pragma: no cover - compiled
+def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit):  # pragma: no cover - compiled
     """The filtered joint velocity for the rows ``N[:count] @ qdot >= b[:count]`` (groups
     ``group``), ``qdot = q0 + B z``, and the end-effector's speed: ``||J qdot|| <= speed_cap``
     (the command's cap: planned, a ``PLAN`` row) and ``<= speed_limit`` (the robot's: hard).
 
-    ``N``, ``b``, ``group`` have room for ``SPEED_CUTS`` more rows after ``count``. Returns
+    ``ramp``: for a ``RECOVERY`` row, the retreat it gives way to first (> 0; else straight to
+    approach nothing). ``N``, ``b``, ``ramp``, ``group`` have room for ``SPEED_CUTS`` more rows
+    after ``count``. Returns
     ``(qdot (nv,), violation (rows,), level, rows)``: how much each row's bound was given up
     (motion rows: smoothness given up for safety; limitation rows: retreats relaxed), the
     level reached (``LEVEL_*``) and the rows used (``count`` plus the speed cuts)."""
-    qdot, violation, level = _solve(q0, B, N, b, group, count, LEVEL_EXACT)
+    qdot, violation, level = _solve(q0, B, N, b, ramp, group, count, LEVEL_EXACT)
     rows = count
     for _ in range(SPEED_CUTS):
         if level == LEVEL_STOPPED:
@@ -179,5 +196,5 @@ def filter_rows(q0, B, N, b, group, count, J, speed_cap, speed_limit):  # pragma
         b[rows] = -(speed_limit if hard else speed_cap)
         group[rows] = LIMITATION if hard else PLAN
         rows += 1
-        qdot, violation, level = _solve(q0, B, N, b, group, rows, level)
+        qdot, violation, level = _solve(q0, B, N, b, ramp, group, rows, level)
     return qdot, violation, level, rows

@@ -282,12 +282,13 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
                       dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
                       width_m, width_rad, speed_cap, retreat_cap, ssm, ssm_params, plan, keep_plan, safety,
-                      keep_safety, recovering):  # pragma: no cover - compiled
+                      keep_safety, recovering, ramp):  # pragma: no cover - compiled
     """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
     limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
     motion limits) into ``safety``; ``keep_*`` False for rows no velocity within the joints'
     limits can break; ``recovering`` True for a safety bound that drifts out of a limitation
-    with nothing walking at it (the filter's ``RECOVERY`` rows). Returns the largest factor by
+    with nothing walking at it (the filter's ``RECOVERY`` rows), and ``ramp`` the retreat it
+    can grow to this step (its braking capacity). Returns the largest factor by
     which a safety bound had to exceed the motion limits (1: none).
 
     Outside the buffer: approach no faster than the arm can brake before the limitation from
@@ -340,7 +341,7 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
             # approach's acceleration, and held against by the brake while the arm slides on.
             own_accel += pull[i]
             decel = max(decel - pull[i], PULL_FLOOR * decel)
-        keep_plan[i], keep_safety[i], recovering[i] = False, False, False
+        keep_plan[i], keep_safety[i], recovering[i], ramp[i] = False, False, False, 0.0
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
             continue  # a row the joints cannot move: no half-space on the command
@@ -358,8 +359,12 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
             if human_closing > 0.0:  # inside a moving person's distance: brake to standstill at the limits
                 safety_bound = -max(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s, 0.0)
             else:
+                # Out at ``recovery_gain`` times the intrusion; when the motion limits leave no
+                # room for that, the filter eases it to what the row's braking capacity lets the
+                # retreat grow to this step (``ramp``), then to approach nothing.
                 safety_bound = -recovery_gain * gap
                 recovering[i] = True
+                ramp[i] = -(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s)
         else:
             # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
             # the braking model starts from the rate the command gives and the pull on top)
@@ -587,6 +592,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     safe_bounds = np.empty(m)  # the safety bounds: the full motion limits
     safe_keep = np.ones(m, dtype=np.bool_)
     recovering = np.zeros(m, dtype=np.bool_)
+    ramp = np.zeros(m)
     ee_velocity_prev = matvec(J, qdot_prev)
     ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
     # The command's cap bounds what the user asks for; from a person walking at the arm the
@@ -597,7 +603,8 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, m, q0, qdot_prev, qddot_prev,
                                      ee_speed_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m,
                                      buffer_rad, recovery_gain, width_m, width_rad, speed_cap, flee_cap,
-                                     ssm, ssm_params, bounds, keep, safe_bounds, safe_keep, recovering)
+                                     ssm, ssm_params, bounds, keep, safe_bounds, safe_keep, recovering,
+                                     ramp)
     # Fleeing: a human row closing (kept), or a hand still faster than the command's cap next to
     # a person (it slows down within its limits when they stop).
     hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
@@ -642,6 +649,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     capacity = 2 * m + 4 * nv + 6 + SPEED_CUTS
     N = np.empty((capacity, nv))  # (every row written in full before it is read)
     b = np.empty(capacity)
+    ramp_b = np.zeros(capacity)  # the recoveries' first easing
     group = np.empty(capacity, dtype=np.int64)
     code = np.empty(capacity, dtype=np.int64)
     count = 0
@@ -659,7 +667,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             if with_safety:
                 for j in range(nv):
                     N[count, j] = A[i, j]
-                b[count], code[count] = safety, row
+                b[count], code[count], ramp_b[count] = safety, row, ramp[i]
                 group[count] = RECOVERY if recovering[i] and safety > 0.0 else LIMITATION
                 count += 1
             if with_plan and (plan > safety or not with_safety):
@@ -710,7 +718,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         room = cap - hand_speed
         if room > 0.0:
             cap = min(cap, hand_speed + ramp_acceleration(room, EE_AXIS_SHARE * ee_jerk, dt_s) * dt_s)
-    qdot, violation, level, rows = filter_rows(q0, B, N, b, group, count, J, cap, ee_speed)
+    qdot, violation, level, rows = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap, ee_speed)
     # The solver meets each row to its tolerance in its own units (rows scaled to unit length in
     # the task's coordinates), which through a task mapping near a singularity is up to ~1e-8
     # rad/s of a joint's velocity: a few 1e-4 of a jerk step at 1 kHz. The joints' speed limits

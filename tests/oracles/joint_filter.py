@@ -21,10 +21,13 @@ def filter_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray) -> np
     return q0 + B @ z
 
 
-def lexicographic_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray, soft: np.ndarray):
+def lexicographic_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray, soft: np.ndarray,
+                     floors: np.ndarray | None = None):
     """``(qdot, violation)``: the soft rows relaxed by least squares while the others stay hard
-    (stage 1), then the closest command to ``q0`` on the relaxed rows (stage 2)."""
+    (stage 1; a soft row with a finite ``floors`` entry at most down to ``N qdot >= floor``),
+    then the closest command to ``q0`` on the relaxed rows (stage 2)."""
     G = N @ B
     h = b - N @ q0
-    z, violation = quadprog_relaxation(np.zeros(B.shape[1]), G, h, soft, np.full(len(b), -np.inf), slack=0.0)
+    floor = np.full(len(b), -np.inf) if floors is None else floors - N @ q0
+    z, violation = quadprog_relaxation(np.zeros(B.shape[1]), G, h, soft, floor, slack=0.0)
     return q0 + B @ z, violation
