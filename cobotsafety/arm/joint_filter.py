@@ -21,7 +21,8 @@ result equal to quadprog's on random problems), in five groups by priority:
   brake before it with its full motion limits (``braking.safe_speed``), and the robot's own
   end-effector speed limit: hard;
 * ``RECOVERY``: the safety bound of a limitation the arm is already inside (its buffer) with
-  nothing walking at it, drifting out at the recovery gain: hard down to "approach nothing";
+  nothing walking at it (``step_kernel``: a person standing), drifting out at the recovery
+  gain: hard down to "approach nothing";
   its retreat gives way (to what it can grow to in a step, then to that) before the motion
   limits do (a retreat is not a stop);
 * ``VELOCITY``: each joint's speed limit: hard;
