@@ -50,6 +50,21 @@ def test_releases_hold_within_the_limits(robot, pulls):
     assert run.safety_over_smoothness_steps == 0
 
 
+def test_a_drive_into_a_joint_limit_holds_the_iiwas_limits_at_1_khz():
+    """The iiwa's hand dragged so that joint a2 runs into its lower limit, at 1 kHz: met within
+    the robot's limits. A joint limit keeps its hard recovery (``RECOVERY`` rows are a standing
+    person's): eased before smoothness like a person's, the joint's drift out of its buffer gave
+    up smoothness on 49 steps (jerk 7.8 times the limit)."""
+    c0 = ArmController("iiwa")
+    model = c0.model
+    (iq, iv), = [pair for pair, name in zip(model.limited, model.limited_names) if name == "joint_a2"]
+    c = limit_runs._start_near(lambda: ArmController("iiwa"), model, iq, False, 0.001)
+    run = _measure("joint-a2-lower", c, limit_runs.toward_joint_limit(c, 0.001, iq, iv, False), 0.001)
+    assert run.safety_over_smoothness_steps == 0
+    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
+    assert run.ratios.max_joint_velocity_ratio > 0.5  # the drive does reach the limit at speed
+
+
 def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys, tmp_path):
     from cobotsafety.cli import main
 
