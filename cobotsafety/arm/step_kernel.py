@@ -356,15 +356,17 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         cap = 0.5 * reach if angular[i] else (retreat_cap if human_closing > 0.0 else speed_cap)
         if gap <= 0.0:
             plan_bound = -recovery_gain * gap + human_closing
+            # The approach speed after one step braking at the row's limits.
+            braked = own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s
             if human_closing > 0.0:  # inside a moving person's distance: brake to standstill at the limits
-                safety_bound = -max(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s, 0.0)
+                safety_bound = -max(braked, 0.0)
             else:
                 # Out at ``recovery_gain`` times the intrusion; when the motion limits leave no
                 # room for that, the filter eases it to what the row's braking capacity lets the
                 # retreat grow to this step (``ramp``), then to approach nothing.
                 safety_bound = -recovery_gain * gap
                 recovering[i] = True
-                ramp[i] = -(own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s)
+                ramp[i] = -braked
         else:
             # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
             # the braking model starts from the rate the command gives and the pull on top)
