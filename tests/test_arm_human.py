@@ -349,6 +349,33 @@ def test_the_anticipative_arm_flees_a_walking_person_faster_than_the_commands_ca
     assert SLIDING.max_speed_m_s * 1.2 < fastest <= flee_cap * 1.05, (fastest, flee_cap)
 
 
+
+def test_a_fleeing_hand_slows_to_the_commands_cap_once_the_person_stops():
+    """The person of the test above walks 1.0 s at the panda's hand and stands there; the user
+    pulls the hand away at the command's cap, the evasion pushing with it. While they close,
+    the hand flees faster than the cap; once they stand, it slows down to the cap within 0.15
+    s (at the plan's share of its deceleration) and stays there (held at the flee cap, it went
+    on at 0.83 m/s beside a person who had stopped: 0.73-0.83 m/s in this window)."""
+    controller = ArmController("panda", zones=[])
+    hand = controller.p_base_ee_m.copy()
+    y = hand[1] + 1.6 + 0.12
+    fastest_walking, after_stop = 0.0, []
+    for i in range(int(2.0 / DT)):
+        walking = i * DT < 1.0
+        if walking:
+            y -= 1.6 * DT
+        controller.set_human(torso([hand[0], y, hand[2]], v=(0.0, -1.6 if walking else 0.0, 0.0)))
+        report = controller.step(np.array([0.0, -0.5, 0.0]), DT)
+        speed = float(np.linalg.norm(report.v_commanded_m_s))
+        if walking:
+            fastest_walking = max(fastest_walking, speed)
+        elif i * DT >= 1.15:
+            after_stop.append(speed)
+    cap = controller.settings.max_speed_m_s
+    assert fastest_walking > 1.2 * cap
+    assert max(after_stop) <= 1.01 * cap, max(after_stop)
+
+
 # ---- contradictions and the yield ----------------------------------------------------------------
 def pinch(controller: ArmController, rng: np.random.Generator) -> HumanCapsules:
     """Two or three capsules closing on the hand from random sides."""

@@ -607,13 +607,15 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
                                      buffer_rad, recovery_gain, width_m, width_rad, speed_cap, flee_cap,
                                      ssm, ssm_params, bounds, keep, safe_bounds, safe_keep, recovering,
                                      ramp)
-    # Fleeing: a human row closing (kept), or a hand still faster than the command's cap next to
-    # a person (it slows down within its limits when they stop).
+    # Fleeing: a human row closing (kept). Once nobody closes, a hand still faster than the
+    # command's cap slows down to it at the plan's share of its deceleration (the cap falls from
+    # the hand's speed now); held at the flee cap, the hand went on at 0.83 m/s beside a person
+    # who had stopped, for seconds, and wound the arm's joints into their limits.
     hand_speed = np.sqrt(ee_velocity_prev[0] ** 2 + ee_velocity_prev[1] ** 2 + ee_velocity_prev[2] ** 2)
     fleeing = False
     if strategy == ANTICIPATIVE:
         for i in range(m):
-            if is_human[i] and keep[i] and (rate[i] < 0.0 or hand_speed > speed_cap):
+            if is_human[i] and keep[i] and rate[i] < 0.0:
                 fleeing = True
     if ssm_stop and n_human > 0 and strategy != OFF:
         # Protective stop: the separation below ISO/TS 15066's S at the arm's approach speed.
@@ -713,8 +715,9 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             code[count] = row_code(OWNER_EE_MOTION, r, side)
             count += 1
     # ---- 5. filter -----------------------------------------------------------------------------
-    flee_cap = max(speed_cap, brake_share * ee_speed)
     cap = ee_speed if strategy == OFF else (flee_cap if fleeing else speed_cap)
+    if strategy == ANTICIPATIVE and not fleeing and hand_speed > speed_cap:
+        cap = min(flee_cap, max(speed_cap, hand_speed - brake_share * EE_AXIS_SHARE * ee_acc * dt_s))
     if strategy != OFF:
         # Toward the cap the hand's acceleration must ramp down at its jerk limit before it
         # gets there, as ``motion_box`` asks of a joint toward its speed limit: this step's cap
