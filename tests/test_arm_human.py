@@ -349,7 +349,6 @@ def test_the_anticipative_arm_flees_a_walking_person_faster_than_the_commands_ca
     assert SLIDING.max_speed_m_s * 1.2 < fastest <= flee_cap * 1.05, (fastest, flee_cap)
 
 
-
 def test_a_fleeing_hand_slows_to_the_commands_cap_once_the_person_stops():
     """The person of the test above walks 1.0 s at the panda's hand and stands there; the user
     pulls the hand away at the command's cap, the evasion pushing with it. While they close,
