@@ -53,7 +53,7 @@ from cobotsafety.arm.limitations.registry import pack_scene
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step_kernel import (FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP,
+from cobotsafety.arm.step_kernel import (FLAG_JOINT_COMMAND, FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP,
                                          OUT_I_HEADER, OWNER_EE_MOTION, OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
                                          STATUS_DONE, STRATEGIES, arm_step, decode_row, output_layout)
 from cobotsafety.arm.step_report import ArmStepReport
@@ -256,6 +256,12 @@ class ArmController:
         found += [lim for lim in (self.reach, self.table) if lim is not None]
         return found + list(self.zones) + [self.human]
 
+    def blocked_by_joint_limits(self, report: ArmStepReport) -> bool:
+        """``report`` (a step of this arm) slides on a joint limit and on no person's row: the
+        posture's deadlock (``control.recovery``) rather than a person in the way."""
+        owners = report.binding_owners
+        return 0 in owners and len(self.limitations) - 1 not in owners
+
     def _scene(self):
         """The packed scene, packed again when a zone is added, replaced or removed, or the
         reach, table or human limitation replaced (limitations are frozen values: a change is a
@@ -308,33 +314,50 @@ class ArmController:
     def step(self, v_desired_m_s, dt_s: float, method: str = "anticipative") -> ArmStepReport:
         """Filter ``v_desired_m_s`` (shape (3,)) [m/s] with ``method``, integrate over ``dt_s``
         [s], report. See the module docstring for bad input."""
+        return self._step(v_desired_m_s, "v_desired_m_s", 3, dt_s, method)
+
+    def step_joints(self, qdot_desired_rad_s, dt_s: float, method: str = "anticipative") -> ArmStepReport:
+        """A posture move: follow the joint velocity ``qdot_desired_rad_s`` (shape (nv,)) [rad/s]
+        as closely as every limitation allows (least squares in joint space; the same rows, motion
+        limits and speed cap as ``step``), integrate over ``dt_s`` [s], report (its
+        ``v_desired_m_s``: the hand velocity the command alone would give). A task's recovery
+        from a joint-limit deadlock uses it (``control.recovery``). Bad input as for ``step``."""
+        return self._step(qdot_desired_rad_s, "qdot_desired_rad_s", self.model.nv, dt_s, method)
+
+    def _step(self, command, name: str, size: int, dt_s: float, method: str) -> ArmStepReport:
         strategy = _STRATEGY_CODES.get(method)
         if strategy is None:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        v = v_desired_m_s
-        if not (type(v) is np.ndarray and v.shape == (3,) and v.dtype == _FLOAT):
-            v = np.asarray(v_desired_m_s, dtype=float).reshape(-1)
-            if v.shape != (3,):
-                raise ValueError(f"v_desired_m_s must have shape (3,), got {np.shape(v_desired_m_s)}")
+        v = command
+        if not (type(v) is np.ndarray and v.shape == (size,) and v.dtype == _FLOAT):
+            v = np.asarray(command, dtype=float).reshape(-1)
+            if v.shape != (size,):
+                raise ValueError(f"{name} must have shape ({size},), got {np.shape(command)}")
+        joint = size != 3 or name != "v_desired_m_s"
         reason = ""
         if not (type(dt_s) in (float, int) or isinstance(dt_s, (float, int, np.floating))) or not math.isfinite(dt_s) \
                 or dt_s <= 0.0:
             logger.warning("step period %r is not a finite positive number: holding", dt_s)
-            return self._hold_report(v, f"period {dt_s!r} s refused: holding")
-        x, y, z = v.tolist()
-        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
-            logger.warning("desired velocity %s is not finite: commanding zero", v)
-            v, reason = np.zeros(3), "desired velocity not finite: commanding zero"
-            x = y = z = 0.0
+            return self._hold_report(self._hand_velocity(v) if joint else v, f"period {dt_s!r} s refused: holding")
+        values = v.tolist()
+        if not all(math.isfinite(value) for value in values):
+            logger.warning("desired %s %s is not finite: commanding zero", "joint velocity" if joint else "velocity", v)
+            v, reason = np.zeros(size), f"desired {'joint ' if joint else ''}velocity not finite: commanding zero"
+            values = [0.0]
+        moving = any(value != 0.0 for value in values)
         if dt_s <= MAX_STEP_S:
-            return self._step_once(v, x != 0.0 or y != 0.0 or z != 0.0, float(dt_s), strategy, reason)
+            return self._step_once(v, moving, float(dt_s), strategy, reason, joint)
         if dt_s > MAX_PERIOD_S:
             raise StepError(f"a step of {dt_s} s is longer than {MAX_PERIOD_S} s: refused (the arm would be "
                             "integrated over a jump)")
         pieces = math.ceil(dt_s / MAX_STEP_S - 1e-9)
         for _ in range(pieces):
-            report = self._step_once(v, x != 0.0 or y != 0.0 or z != 0.0, dt_s / pieces, strategy, reason)
+            report = self._step_once(v, moving, dt_s / pieces, strategy, reason, joint)
         return report
+
+    def _hand_velocity(self, qdot: np.ndarray) -> np.ndarray:
+        """The hand's velocity [m/s] a joint velocity gives at ``q`` (non-finite: zero)."""
+        return self.state.J_ee @ qdot if np.all(np.isfinite(qdot)) else np.zeros(3)
 
     def _hold_report(self, v: np.ndarray, reason: str) -> StepReport:
         p = self.state.p_world_ee.copy()
@@ -343,10 +366,10 @@ class ArmController:
                           contradictions=self.contradictions,
                           safety_over_smoothness_steps=self.smoothness_steps)
 
-    def _command(self, v: np.ndarray, moving: bool, strategy: int) -> np.ndarray:
+    def _command(self, v: np.ndarray, moving: bool, strategy: int, joint: bool) -> np.ndarray:
         """The user's command, or (released: zero, and not ``off``) the attraction back to the
         held point."""
-        if moving or strategy == _OFF:
+        if moving or strategy == _OFF or joint:
             self.p_hold_m = None
             return v
         p = self.state.p_world_ee
@@ -377,20 +400,23 @@ class ArmController:
             return grown, f"human model {age:.2f} s old: stopped", True
         return grown, f"human model {age:.2f} s old: grown by {self.watchdog.growth_speed_m_s * excess:.2f} m", False
 
-    def _step_once(self, v_user: np.ndarray, moving: bool, dt_s: float, strategy: int, reason: str) -> ArmStepReport:
+    def _step_once(self, v_user: np.ndarray, moving: bool, dt_s: float, strategy: int, reason: str,
+                   joint: bool = False) -> ArmStepReport:
         self._scene()
-        v = self._command(v_user, moving, strategy)
+        v = self._command(v_user, moving, strategy, joint)
+        desired = self._hand_velocity(v_user) if joint else v_user  # (the kinematics at q: before the step)
         yielding = strategy == _ANTICIPATIVE and self.clock_s < self.yield_until_s
         human_f, human_status, watchdog_stop = self._human_now()
         ssm_flags = _SSM_FLAGS.get(self.ssm)
         if ssm_flags is None:
             raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
         held = self.last_report is not None and self.last_report.protective_stop  # a stop under way
-        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if held else 0)
+        flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if held else 0) | (
+            FLAG_JOINT_COMMAND if joint else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.out_f  # the previous step's output: the kinematics at q
-        status = arm_step(self._state_f, before, _ZERO3 if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
+        status = arm_step(self._state_f, before, (np.zeros_like(v) if joint else _ZERO3) if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
                           self.model.robot_i, self.model.robot_f, self._scene_i, self._scene_f, human_f,
                           self._settings_f, out_f, out_i)
         if status != STATUS_DONE:
@@ -425,7 +451,7 @@ class ArmController:
                 stopped, reason = True, "yielding: " + (reason or "the retreats contradicted each other")
         if self.p_hold_m is not None and not (watchdog_stop or protective):
             stopped = False  # released: the return is ours, not a command refused
-        report = ArmStepReport(out_f, out_i, self._offsets, self._name, v_user, stopped, reason, self.contradictions,
+        report = ArmStepReport(out_f, out_i, self._offsets, self._name, desired, stopped, reason, self.contradictions,
                                smoothness != 0, self.smoothness_steps, human_status, before)
         if stopped and not reason and report.binding:
             report.reason = "blocked by " + ", ".join(report.binding)

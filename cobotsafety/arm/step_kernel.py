@@ -8,9 +8,11 @@ buffers grouped by role:
   end-effector's previous velocity (3) and acceleration (3). Updated in place.
 * ``kin_f``: the previous step's ``out_f``: its kinematics at its q_next are this step's at
   ``q`` when ``q`` is that q_next (checked bit for bit; else, e.g. an empty array, computed).
-* the command: the desired end-effector velocity ``v`` (3) [m/s], the period ``dt_s`` [s], the
-  strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM's speed scaling, forced
-  stop, SSM's protective stop, and that stop under way in the previous step), how far
+* the command: the desired end-effector velocity ``v`` (3) [m/s] (with ``FLAG_JOINT_COMMAND``:
+  a desired joint velocity (nv) [rad/s], a posture move followed in joint space), the period
+  ``dt_s`` [s], the strategy (``STRATEGIES``), ``flags`` (``FLAG_*``: orientation hold, SSM's
+  speed scaling, forced stop, SSM's protective stop, that stop under way in the previous step,
+  a joint command), how far
   ahead of its frame the human is extrapolated [s], and ``reference_f``: the reference
   orientation (9, row-major) and the speed cap [m/s].
 * ``robot_i``, ``robot_f``: the robot (``robot_model.robot_buffers``).
@@ -23,7 +25,8 @@ buffers grouped by role:
 The step:
 
 1. kinematics at ``q`` (``kinematics.py``, or the previous step's at its q_next), the task's
-   joint velocity ``q0 = M v + c`` and the null basis (``task.py``);
+   joint velocity ``q0 = M v + c`` and the null basis (``task.py``); a joint command is ``q0``
+   itself, followed by least squares in joint space (as the field's and ``off``'s);
 2. every limitation's rows ``(d, a, rate)`` (``limitations/``) and their bounds
    (``limitation_bounds``): the approach speed from which the arm can still brake before the
    limitation (``braking.braking_speed``); for a person walking at the arm, ISO/TS 15066's
@@ -67,8 +70,9 @@ from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
 STRATEGIES = ("anticipative", "stop", "reactive", "off")
 #: ``flags`` bits: hold the reference orientation; ISO/TS 15066 SSM's speed scaling; brake to a
-#: stop; SSM's protective stop; that stop under way in the previous step.
-FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD = 1, 2, 4, 8, 16
+#: stop; SSM's protective stop; that stop under way in the previous step; the command is a joint
+#: velocity.
+FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_JOINT_COMMAND = 1, 2, 4, 8, 16, 32
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
 #: anticipative command carried the repulsion from a person); then the binding rows' codes, then
@@ -475,6 +479,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     with_orientation, ssm, force_stop = (flags & FLAG_ORIENTATION) != 0, (flags & FLAG_SSM) != 0, \
         (flags & FLAG_STOP) != 0
     ssm_stop, protective_held = (flags & FLAG_PROTECTIVE) != 0, (flags & FLAG_PROTECTIVE_HELD) != 0
+    joint_command = (flags & FLAG_JOINT_COMMAND) != 0
     ee_speed, ee_acc, ee_jerk = ee_limits[0], ee_limits[1], ee_limits[2]
     out_i[:OUT_I_HEADER] = 0  # (the row codes after it: written as far as the header counts them)
     out_f[:] = 0.0
@@ -490,7 +495,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
                                                     support, ee_joint, ee_R, ee_t, cap_joint, cap_p0l, cap_p1l, nv)
     kin = (q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot_prev)
     speed = np.sqrt(np.sum(v * v))
-    if speed > speed_cap:
+    if speed > speed_cap and not joint_command:  # (a joint command: the speed rows cap its hand)
         v = v * (speed_cap / speed)
     J = np.ascontiguousarray(J6[:3])
     error = log3(matmul_nt(R_ref, R_ee)) if with_orientation else np.zeros(3)
@@ -548,7 +553,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         if scene_i[con, 0] == human_kind.KIND:
             human_skip, human_con = min(scene_i[con, 1], n_caps), con
     # ---- 3. the strategy's target ------------------------------------------------------------
-    q0 = matvec(M, v) + c
+    q0 = v.copy() if joint_command else matvec(M, v) + c
     Z = null_basis(J)
     nz = 3 + Z.shape[1]
     B = np.empty((nv, nz))
@@ -584,10 +589,13 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             q0[j] += evasion_gain * repulsion[j]
             evading = evading or repulsion[j] != 0.0
     if strategy == REACTIVE:
-        q0, stopped = field_velocity(J, v, d_min, capsule, pr, ph, cap_joint, oR, op, axes, idx_v, support,
-                                     field_critical, field_influence, field_k_rep, field_max_rep, field_damping)
+        q0, stopped = field_velocity(J, np.zeros(3) if joint_command else v, d_min, capsule, pr, ph, cap_joint, oR,
+                                     op, axes, idx_v, support, field_critical, field_influence, field_k_rep,
+                                     field_max_rep, field_damping)
+        if joint_command and not stopped:
+            q0 += v
         B = np.eye(nv)
-    elif strategy == OFF:
+    elif strategy == OFF or joint_command:
         B = np.eye(nv)
     bounds = np.empty(m)  # the plan's bounds
     keep = np.ones(m, dtype=np.bool_)
@@ -850,9 +858,9 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     out_i[I_STATUS] = STATUS_DONE
     out_i[I_LEVEL] = level
     user_moves = speed > 0.0 and not (stopped or protective or force_stop)
-    ee_commanded = np.sqrt(np.sum(matvec(J, qdot) ** 2))
+    commanded = np.sqrt(np.sum(qdot ** 2) if joint_command else np.sum(matvec(J, qdot) ** 2))
     out_i[I_STOPPED] = int(stopped or protective or force_stop or level == LEVEL_STOPPED or (
-        user_moves and ee_commanded <= 1e-6))
+        user_moves and commanded <= 1e-6))
     out_i[I_BINDING] = n_binding
     out_i[I_RELAXED] = relaxed_rows if level in (LEVEL_RELAXED, LEVEL_APPROACH_NOTHING) else 0
     out_i[I_WORST] = worst_code

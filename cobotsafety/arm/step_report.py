@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from cobotsafety.arm.step_kernel import I_BINDING, I_EVADING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER
+from cobotsafety.arm.step_kernel import I_BINDING, I_EVADING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER, decode_row
 
 
 class ArmStepReport:
@@ -75,6 +75,14 @@ class ArmStepReport:
             codes, n_binding = self._codes()
             self._binding = tuple(dict.fromkeys(self._name(code) for code in codes[:n_binding]))
         return self._binding
+
+    @property
+    def binding_owners(self) -> frozenset[int]:
+        """Who owns ``binding``'s rows: each limitation's index in ``ArmController.limitations``
+        (0 the joint limits, the last the human), or a negative ``step_kernel.OWNER_*`` (the
+        robot's speed cap and joint speed limits)."""
+        codes, n_binding = self._codes()
+        return frozenset(decode_row(code)[0] for code in codes[:n_binding])
 
     @property
     def motion_limited(self) -> tuple[str, ...]:

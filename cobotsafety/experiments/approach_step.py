@@ -2,6 +2,7 @@
 
     controller = make_controller("iiwa", "anticipative", ssm="stop")
     out = step(controller, human, v_att_m_s, dt_s)     # -> ApproachStep
+    out = step(controller, human, qdot_rad_s, dt_s, joints=True)  # a posture move (control.recovery)
 
 Strategies: ``anticipative`` (the joint-space sliding filter with the human as a moving zone),
 ``reactive`` (paper 2's potential field, sliding off every other limitation), ``stop`` (the
@@ -79,8 +80,10 @@ def state(controller: Controller):
     return controller.arm.state
 
 
-def step(controller: Controller, human: HumanCapsules | None, v_att_m_s: np.ndarray, dt_s: float) -> ApproachStep:
-    """One control step toward ``v_att_m_s`` (3,) [m/s] with ``human`` (None: nobody in range)."""
+def step(controller: Controller, human: HumanCapsules | None, v_att_m_s: np.ndarray, dt_s: float,
+         joints: bool = False) -> ApproachStep:
+    """One control step toward ``v_att_m_s`` (3,) [m/s] (``joints``: a joint velocity (nv,)
+    [rad/s], ``ArmController.step_joints``) with ``human`` (None: nobody in range)."""
     arm = controller.arm
     if human is not None and human.present:
         arm.set_human(human)
@@ -88,7 +91,7 @@ def step(controller: Controller, human: HumanCapsules | None, v_att_m_s: np.ndar
     elif controller.human_set:  # cleared once when the human leaves
         arm.clear_human()
         controller.human_set = False
-    report = arm.step(np.asarray(v_att_m_s, dtype=float), dt_s, controller.strategy)
+    report = (arm.step_joints if joints else arm.step)(np.asarray(v_att_m_s, dtype=float), dt_s, controller.strategy)
     d = report.min_distance_m
     held = report.protective_stop
     return ApproachStep(report, float(d) if d is not None else float("inf"), arm.state.q.copy(), held)

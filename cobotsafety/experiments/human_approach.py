@@ -73,6 +73,8 @@ class EpisodeLog:
     q_rad: list = field(default_factory=list)
     torso_xy_m: list = field(default_factory=list)
     completion_s: float | None = None
+    posture_recoveries: int = 0
+    """Posture moves home after the task stalled at joint limits (``control.recovery``)."""
     #: The arm's configuration and hand position before the first step (the per-step lists
     #: start after it): the motion's ratios are measured from rest there.
     q_start_rad: np.ndarray | None = None
@@ -105,13 +107,18 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
                 completion_tolerance_m: float = 0.01) -> EpisodeLog:
     """Drive ``controller`` (``approach_step.Controller``) along ``path`` next to ``humans``
     until the path is done (end-effector within ``completion_tolerance_m`` of its end) or
-    ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance."""
+    ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance. A task
+    stalled at joint limits moves its posture home and resumes (``control.recovery``)."""
     from cobotsafety.control.pi import AntiWindupPI
+    from cobotsafety.control.recovery import PostureRecovery
     from cobotsafety.experiments import approach_step
 
     state = approach_step.state(controller)
-    skip = controller.arm.human.skip_capsules
+    arm = controller.arm
+    skip = arm.human.skip_capsules
     pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=settings.ATTRACTION_LIMIT_M_S)
+    recovery = PostureRecovery(arm.model.home_q, arm.model.limits.velocity_rad_s, near_m=path.max_lag_m)
+    blocked = False
     log = EpisodeLog()
     end_point = path.point(path.length_m)
     log.q_start_rad, log.p_ee_start_m = state.q.copy(), state.p_world_ee.copy()
@@ -120,8 +127,16 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
         human = humans[k]
         present = human is not None and human.present
         p_ee = state.p_world_ee
-        v_att = pi.update(path.advance(p_ee, dt_s) - p_ee, dt_s)
-        out = approach_step.step(controller, human if present else None, v_att, dt_s)
+        error = path.advance(p_ee, dt_s) - p_ee
+        posture = recovery.command(t, state.q, float(np.linalg.norm(error)), blocked)
+        if posture is None:
+            v_att = pi.update(error, dt_s)
+            out = approach_step.step(controller, human if present else None, v_att, dt_s)
+        else:
+            pi.reset()  # (its integral is the stall's)
+            out = approach_step.step(controller, human if present else None, posture, dt_s, joints=True)
+            v_att = out.report.v_desired_m_s
+        blocked = arm.blocked_by_joint_limits(out.report)
         k += 1
         t = k * dt_s
         robot = (state.capsule_p0[skip:], state.capsule_p1[skip:], state.capsule_radius[skip:])
@@ -143,6 +158,7 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
         if path.finished and np.linalg.norm(state.p_world_ee - end_point) < completion_tolerance_m:
             log.completion_s = t
             break
+    log.posture_recoveries = recovery.count
     return log
 
 

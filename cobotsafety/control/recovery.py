@@ -1,0 +1,100 @@
+"""A task's way out of a joint-limit deadlock: the posture move home.
+
+A least-squares filter never moves the hand against its command. When the arm's posture has
+wound joints into their limits so that the joints still free cannot move the hand toward the
+task's target (docs/campaign.md: the panda's joints 1, 3 and 7 at their lower limits, the four
+free joints' hand motion nearly orthogonal to the command), the closest feasible command is
+zero and the task waits for good. Nothing local unwinds such a posture: it needs a move in
+joint space.
+
+``PostureRecovery`` watches the task each step. The hand is *stalled* when the target is out of
+its reach (farther than ``near_m``: the path waits for the hand), the step slides on a joint
+limit and on no person's row (``ArmController.blocked_by_joint_limits``: a person in the way is
+waited for, not driven around), and the hand has come less than ``progress_m`` closer to the
+target for ``stall_s``. Then it commands a joint-space move to the home posture
+(``ArmController.step_joints``: the same filter, every limitation and motion limit kept; a
+person arriving meanwhile is kept as always) until every joint is within ``home_rad`` of home;
+the task resumes from there (the path still waits where it was). A move home that itself
+makes less than ``progress_rad`` of progress for ``stall_s`` is given up (the task resumes).
+
+Settings, from stated principles (fixed before any campaign figure):
+
+* ``stall_s`` = 1 s: the task's slowest legitimate wait that is not a person in the way is the
+  hand braking and turning at a corner of its path (0.12 m/s, a fraction of a second); a yield
+  (0.3 s) is a person's and excluded anyway;
+* ``progress_m`` = 10 mm: a tenth of the task's path in that second;
+* ``gain_per_s`` = 1 /s toward home, each joint at most half its speed limit (the secondary
+  task's share, ``task.task_mapping``);
+* ``home_rad`` = 0.05 rad: home to within a few centimetres of the hand.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class PostureRecovery:
+    """The posture move home of a task stalled at joint limits (module docstring).
+
+    ``q_home_rad`` (nq,) the home posture (a revolute arm: nq = nv); ``velocity_limit_rad_s``
+    (nv,) the joints' speed limits."""
+
+    q_home_rad: np.ndarray
+    velocity_limit_rad_s: np.ndarray
+    near_m: float = 0.05
+    stall_s: float = 1.0
+    progress_m: float = 0.01
+    progress_rad: float = 0.01
+    gain_per_s: float = 1.0
+    speed_share: float = 0.5
+    home_rad: float = 0.05
+    recovering: bool = False
+    count: int = 0
+    """Posture moves started."""
+    _since_s: float = 0.0
+    _best: float = np.inf
+
+    def __post_init__(self):
+        self.q_home_rad = np.array(self.q_home_rad, dtype=float)
+        self.velocity_limit_rad_s = np.array(self.velocity_limit_rad_s, dtype=float)
+        if self.q_home_rad.shape != self.velocity_limit_rad_s.shape:
+            raise ValueError(f"q_home_rad {self.q_home_rad.shape} and velocity_limit_rad_s "
+                             f"{self.velocity_limit_rad_s.shape} must have the same shape (a revolute arm)")
+
+    def _restart(self, t_s: float, measure: float) -> None:
+        self._since_s, self._best = t_s, measure
+
+    def command(self, t_s: float, q_rad: np.ndarray, target_distance_m: float, blocked: bool) -> np.ndarray | None:
+        """The joint velocity of the posture move [rad/s] (nv,), or None: follow the task.
+
+        ``t_s`` the time [s]; ``q_rad`` the joints now; ``target_distance_m`` the hand's distance
+        to the task's target [m]; ``blocked`` the last step slid on a joint limit and on no
+        person's row (``ArmController.blocked_by_joint_limits``)."""
+        if self.recovering:
+            offset = self.q_home_rad - q_rad
+            remaining = float(np.max(np.abs(offset)))
+            if remaining <= self.home_rad:
+                self.recovering = False
+                self._restart(t_s, np.inf)
+                return None
+            if remaining < self._best - self.progress_rad:
+                self._restart(t_s, remaining)
+            elif t_s - self._since_s >= self.stall_s:  # the move home is stuck too: back to the task
+                self.recovering = False
+                self._restart(t_s, np.inf)
+                return None
+            qdot = self.gain_per_s * offset
+            ratio = float(np.max(np.abs(qdot) / (self.speed_share * self.velocity_limit_rad_s)))
+            return qdot / ratio if ratio > 1.0 else qdot
+        if not blocked or target_distance_m <= self.near_m or target_distance_m < self._best - self.progress_m:
+            self._restart(t_s, target_distance_m if blocked and target_distance_m > self.near_m else np.inf)
+            return None
+        if t_s - self._since_s < self.stall_s:
+            return None
+        self.recovering = True
+        self.count += 1
+        self._restart(t_s, np.inf)
+        return self.command(t_s, q_rad, target_distance_m, blocked)
