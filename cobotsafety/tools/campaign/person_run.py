@@ -10,7 +10,8 @@ index, whatever worker runs it), synthesises its laser and IMU data and ground t
 The task (``campaign_task``): from home above the pick pose, over to the place pose and home,
 at ``TASK_SPEED_M_S``, started at once; done when the end-effector is back home. Completed when
 done before ``nominal + TIMEOUT_EXTRA_S``; time lost = completion - the same task with nobody
-there (computed once per robot).
+there (computed once per robot). A task stalled at joint limits moves its posture home and
+resumes (``control.recovery``; ``posture_recoveries`` counts those moves).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "estimate_error_at_closest_m", "closest_time_s", "breach", "escape_exists",
                "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
-               "stopped_time_s", "protective_stop_time_s")
+               "stopped_time_s", "protective_stop_time_s", "posture_recoveries")
 
 
 def campaign_task(home_m: np.ndarray):
@@ -136,5 +137,6 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "peak_ee_speed_m_s": round(m.peak_ee_speed_m_s, 4),
             "max_joint_acceleration_ratio": round(m.max_joint_acceleration_ratio, 4),
             "stopped_time_s": round(m.stopped_time_s, 4), "protective_stop_time_s": round(m.protective_stop_time_s, 4),
+            "posture_recoveries": log.posture_recoveries,
         })
     return results

@@ -7,7 +7,8 @@ the beta quantile; 0 of N gives 1 - 0.05^(1/N), about 3/N). A breach *with an es
 offline search (``escape.escape_exists``) found a motion keeping the critical distance from
 ``LOOKBACK_S`` before the closest moment; *after detection*: also from the moment the controller
 first saw the person without a break up to the closest moment (the rest needed the arm to move
-before anyone was seen: the sensors' share, not the controller's).
+before anyone was seen: the sensors' share, not the controller's). *People with a posture
+recovery*: whose task stalled at joint limits and moved home (``control.recovery``).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_95", "breaches_with_escape",
                "breaches_with_escape_after_detection",
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
-               "max_joint_acceleration_ratio")
+               "max_joint_acceleration_ratio", "people_with_posture_recovery")
 
 
 def clopper_pearson_upper(breaches: int, people: int, confidence: float = 0.95) -> float:
@@ -54,6 +55,7 @@ def summarise(results: list[dict]) -> list[dict]:
             "completion_rate": round(sum(bool(r["completed"]) for r in rows) / len(rows), 4),
             "median_time_lost_s": round(float(np.median(lost)), 4) if lost.size else None,
             "max_joint_acceleration_ratio": round(max(r["max_joint_acceleration_ratio"] for r in rows), 4),
+            "people_with_posture_recovery": sum(r.get("posture_recoveries", 0) > 0 for r in rows),
         })
     return out
 
@@ -74,8 +76,9 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              f"Critical distance {settings.CRITICAL_M:.3f} m (a breach: the true separation below it); "
              f"settings: {json.dumps(settings.as_dict())}.", "",
              "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | of which after detection | "
-             "median true min | p05 true min | completion | median time lost | max joint accel ratio |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
+             "posture moves home |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
@@ -83,7 +86,7 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{s['breaches_with_escape_after_detection']} | "
                      f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
-                     f"{s['max_joint_acceleration_ratio']:.2f} |")
+                     f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_with_posture_recovery']} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]
     by_kind: dict[tuple, list[int]] = {}
     for r in results:

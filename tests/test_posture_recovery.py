@@ -1,0 +1,148 @@
+"""The posture move home of a task stalled at joint limits (``control/recovery.py``) and the
+joint-space command it drives (``ArmController.step_joints``)."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from cobotsafety.arm.controller import ArmController
+from cobotsafety.control.nominal_path import NominalPath
+from cobotsafety.control.recovery import PostureRecovery
+from test_arm_controller import CROSSING_M, oracle_distances
+
+DT_S = 0.002
+#: The panda's posture of campaign person 250 (seed 0) at its deadlock (docs/campaign.md):
+#: joints 1, 3 and 7 at their lower limits.
+WOUND_Q = np.array([-2.896, -0.126, -2.896, -2.316, -1.552, 1.086, -2.896])
+
+
+def test_a_joint_command_in_free_space_is_followed_within_the_motion_limits():
+    controller = ArmController("panda", zones=[], reach=False, table=False)
+    command = np.zeros(controller.model.nv)
+    command[3], command[5] = 0.2, -0.1  # the elbow and the wrist, away from their limits
+    reports = [controller.step_joints(command, DT_S) for _ in range(500)]
+    np.testing.assert_allclose(reports[-1].extras["qdot"], command, atol=1e-9)  # reached and held
+    assert max(r.joint_acceleration_ratio for r in reports) <= 1.0 + 1e-9  # ramped up within the limit
+    assert not any(r.safety_over_smoothness for r in reports)
+    np.testing.assert_allclose(reports[-1].v_desired_m_s, controller.state.J_ee @ command, atol=1e-3)
+
+
+@pytest.mark.parametrize("robot", ["panda", "iiwa"])
+def test_a_joint_command_never_crosses_a_joint_limit_a_zone_or_the_table(robot):
+    controller = ArmController(robot)  # the demo's cell: joint limits, reach, table, three zones
+    speed = 0.5 * controller.model.limits.velocity_rad_s
+    rng = np.random.default_rng(7)
+    met = set()
+    for _ in range(4):
+        command = speed * rng.choice([-1.0, 1.0], size=speed.shape)  # every joint at half its speed
+        for _ in range(400):
+            report = controller.step_joints(command, 0.004)
+            assert np.all(oracle_distances(controller) >= -CROSSING_M)
+            met |= set(report.binding)
+    assert any(name.endswith((" lower", " upper")) for name in met), met  # it met some
+
+
+def test_a_non_finite_joint_command_is_the_zero_command_and_a_wrong_shape_is_refused(caplog):
+    controller = ArmController("panda", zones=[])
+    still = ArmController("panda", zones=[])
+    command = np.full(controller.model.nv, 0.1)
+    for _ in range(50):
+        controller.step_joints(command, DT_S)
+    still.set_configuration(controller.state.q)
+    with caplog.at_level(logging.WARNING, logger="cobotsafety.arm.controller"):
+        report = controller.step_joints(np.full(controller.model.nv, np.nan), DT_S)
+    assert "not finite" in report.reason and len(caplog.records) == 1
+    assert np.all(np.isfinite(controller.state.q)) and np.all(np.isfinite(report.v_desired_m_s))
+    twin = ArmController("panda", zones=[])
+    twin.set_configuration(controller.state.q)
+    still.set_configuration(controller.state.q)
+    for _ in range(20):
+        twin.step_joints(np.array([np.inf] + [0.0] * 6), DT_S)
+        still.step_joints(np.zeros(7), DT_S)
+    np.testing.assert_array_equal(twin.state.q, still.state.q)
+    with pytest.raises(ValueError, match="shape"):
+        controller.step_joints(np.zeros(3), DT_S)
+
+
+def _recovery() -> PostureRecovery:
+    return PostureRecovery(np.zeros(3), np.array([2.0, 2.0, 4.0]))
+
+
+def test_the_recovery_starts_only_after_a_stall_at_joint_limits_of_stall_s():
+    q = np.array([1.0, -0.5, 0.2])
+    recovery = _recovery()
+    steps = int(recovery.stall_s / DT_S)
+    for k in range(3 * steps):  # not blocked by a joint limit (e.g. a person in the way): waits
+        assert recovery.command(k * DT_S, q, 0.3, blocked=False) is None
+    t0 = 3 * steps * DT_S
+    for k in range(3 * steps):  # blocked but progressing by 20 mm/s: waits
+        assert recovery.command(t0 + k * DT_S, q, 0.3 - 0.02 * k * DT_S, blocked=True) is None
+    t0 += 3 * steps * DT_S
+    for k in range(3 * steps):  # blocked, within reach of the target (the path is moving): waits
+        assert recovery.command(t0 + k * DT_S, q, recovery.near_m, blocked=True) is None
+    t0 += 3 * steps * DT_S
+    started = None
+    for k in range(2 * steps):  # blocked, no progress: after stall_s, toward home
+        out = recovery.command(t0 + k * DT_S, q, 0.3, blocked=True)
+        if out is not None:
+            started = k * DT_S
+            break
+    assert started == pytest.approx(recovery.stall_s, abs=1.5 * DT_S) and recovery.count == 1
+    assert np.all(np.sign(out) == np.sign(-q))  # toward home
+    assert np.max(np.abs(out) / recovery.velocity_limit_rad_s) <= recovery.speed_share + 1e-12
+
+
+def test_the_recovery_ends_at_home_or_when_its_own_move_is_stuck():
+    recovery = _recovery()
+    q = np.array([1.0, -0.5, 0.2])
+    t, k = 0.0, 0
+    while recovery.command(t, q, 0.3, blocked=True) is None:
+        k += 1
+        t = k * DT_S
+    moving = q.copy()
+    while (out := recovery.command(t, moving, 0.3, blocked=True)) is not None:  # followed exactly
+        moving = moving + out * DT_S
+        k += 1
+        t = k * DT_S
+    assert np.max(np.abs(moving)) <= recovery.home_rad and not recovery.recovering
+    assert recovery.command(t + DT_S, moving, 0.3, blocked=True) is None  # the task resumes
+    stuck = _recovery()
+    t, k = 0.0, 0
+    while stuck.command(t, q, 0.3, blocked=True) is None:
+        k += 1
+        t = k * DT_S
+    start = t
+    while stuck.command(t, q, 0.3, blocked=True) is not None:  # the posture never moves: given up
+        k += 1
+        t = k * DT_S
+    assert t - start == pytest.approx(stuck.stall_s, abs=1.5 * DT_S) and not stuck.recovering
+
+
+@pytest.mark.parametrize("with_recovery", [True, False])
+def test_a_task_wound_into_joint_limits_completes_through_the_move_home(with_recovery, monkeypatch):
+    """From the panda's wound posture the closest feasible hand velocity toward the target is
+    zero: without the recovery the task never finishes; with it, it does, every limitation kept."""
+    from cobotsafety.experiments import approach_step
+    from cobotsafety.experiments.human_approach import run_episode
+    from cobotsafety.human.body import BodyDimensions
+    from cobotsafety.tools.campaign.person_run import _Nobody
+
+    if not with_recovery:
+        monkeypatch.setattr(PostureRecovery, "command", lambda self, *args: None)
+    controller = approach_step.make_controller("panda", "anticipative")
+    controller.arm.set_configuration(WOUND_Q)
+    p = approach_step.state(controller).p_world_ee.copy()
+    goal = p + np.array([0.12, -0.276, 0.006])  # the stalled run's command, 0.3 m along it
+    log = run_episode(controller, _Nobody(), BodyDimensions(), NominalPath(np.array([p, goal]), speed_m_s=0.12),
+                      DT_S, 20.0)
+    q = np.array(log.q_rad)
+    limits = controller.arm.model
+    assert np.all(q >= limits.lower - CROSSING_M) and np.all(q <= limits.upper + CROSSING_M)
+    if with_recovery:
+        assert log.completion_s is not None and log.posture_recoveries == 1
+    else:
+        assert log.completion_s is None
+        assert np.linalg.norm(controller.arm.state.p_world_ee - p) < 0.02  # held still for 20 s
