@@ -71,6 +71,17 @@ def _relax(q0, B, G, h, soft, floors):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def _relax_lowered(q0, B, G, h, lowered, soft, floors):  # pragma: no cover - compiled
+    """``_relax`` with some rows' bounds given way to ``lowered`` (below ``h``): each row's
+    violation counts from its full bound ``h``."""
+    qdot, violation, done = _relax(q0, B, G, lowered, soft, floors)
+    if done:
+        for i in range(h.shape[0]):
+            violation[i] += h[i] - lowered[i]
+    return qdot, violation, done
+
+
+@numba.njit(cache=True)
 def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - compiled
     """One solve of the rows ``[:count]`` at the priorities above, from level ``first_level``
     on (the cut loop keeps a level once reached): ``(qdot, violation (count,), level)``.
@@ -124,21 +135,17 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
                     if eased[i] != h[i] and ramp[i] > 0.0:
                         ramped[i] = min(ramp[i], b[i]) - base[i]
                         ramping = True
-                for attempt in range(2):
-                    lowered = ramped if attempt == 0 else eased
-                    if attempt == 0 and not ramping:
-                        continue
-                    eased_qdot, eased_violation, eased_done = _relax(q0, B, G, lowered, soft, floors)
+                if ramping:
+                    eased_qdot, eased_violation, eased_done = _relax_lowered(q0, B, G, h, ramped, soft, floors)
                     if eased_done:
-                        for i in range(count):
-                            eased_violation[i] += h[i] - lowered[i]
                         return eased_qdot, eased_violation, LEVEL_EXACT
+                eased_qdot, eased_violation, eased_done = _relax_lowered(q0, B, G, h, eased, soft, floors)
+                if eased_done:
+                    return eased_qdot, eased_violation, LEVEL_EXACT
                 for i in range(count):
                     soft[i] = group[i] == PLAN or group[i] == MOTION
-            eased_qdot, eased_violation, eased_done = _relax(q0, B, G, eased, soft, floors)
+            eased_qdot, eased_violation, eased_done = _relax_lowered(q0, B, G, h, eased, soft, floors)
             if eased_done:
-                for i in range(count):
-                    eased_violation[i] += h[i] - eased[i]
                 return eased_qdot, eased_violation, LEVEL_SMOOTHNESS
         if done:
             return qdot, violation, LEVEL_SMOOTHNESS
@@ -160,10 +167,8 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
     for i in range(count):
         if (group[i] == LIMITATION or group[i] == RECOVERY or group[i] == PLAN) and b[i] > 0.0:
             lowered[i] = -base[i]
-    qdot, violation, done = _relax(q0, B, G, lowered, soft, floors)
+    qdot, violation, done = _relax_lowered(q0, B, G, h, lowered, soft, floors)
     if done:
-        for i in range(count):
-            violation[i] += h[i] - lowered[i]
         return qdot, violation, LEVEL_APPROACH_NOTHING
     return np.zeros(nv), np.zeros(count), LEVEL_STOPPED
 

@@ -195,7 +195,8 @@ class ApproachRun:
 
     def as_json(self) -> dict:
         return {"scenario": self.scenario, "recording": self.recording, "robot": self.robot,
-                "controller": self.controller, "ssm": self.ssm, **self.metrics.as_dict()}
+                "controller": self.controller, "ssm": self.ssm, **self.metrics.as_dict(),
+                "posture_recoveries": self.log.posture_recoveries}
 
 
 def load_replay(scenario: str, replay_file: Path | None, scanner: str = "corner"):
