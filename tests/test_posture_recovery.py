@@ -71,22 +71,30 @@ def _recovery() -> PostureRecovery:
     return PostureRecovery(np.zeros(3), np.array([2.0, 2.0, 4.0]))
 
 
-def test_the_recovery_starts_only_after_a_stall_at_joint_limits_of_stall_s():
+HAND = np.array([0.5, 0.0, 0.4])
+
+
+def test_the_recovery_starts_only_after_the_hand_stood_at_joint_limits_for_stall_s():
     q = np.array([1.0, -0.5, 0.2])
     recovery = _recovery()
-    steps = int(recovery.stall_s / DT_S)
-    for k in range(3 * steps):  # not blocked by a joint limit (e.g. a person in the way): waits
-        assert recovery.command(k * DT_S, q, 0.3, blocked=False) is None
-    t0 = 3 * steps * DT_S
-    for k in range(3 * steps):  # blocked but progressing by 20 mm/s: waits
-        assert recovery.command(t0 + k * DT_S, q, 0.3 - 0.02 * k * DT_S, blocked=True) is None
-    t0 += 3 * steps * DT_S
-    for k in range(3 * steps):  # blocked, within reach of the target (the path is moving): waits
-        assert recovery.command(t0 + k * DT_S, q, recovery.near_m, blocked=True) is None
-    t0 += 3 * steps * DT_S
+    steps = int(2 * recovery.stall_s / DT_S)
+    t0 = 0.0
+    for k in range(steps):  # not blocked by a joint limit (e.g. a person in the way): waits
+        assert recovery.command(t0 + k * DT_S, q, HAND, 0.3, blocked=False) is None
+    t0 += steps * DT_S
+    for k in range(steps):  # blocked, crawling along the limit at 10 mm/s: making its way
+        assert recovery.command(t0 + k * DT_S, q, HAND + [0.0, 0.01 * k * DT_S, 0.0], 0.3, blocked=True) is None
+    t0 += steps * DT_S
+    for k in range(steps):  # blocked and still, but the target within reach (the path moves on): waits
+        assert recovery.command(t0 + k * DT_S, q, HAND, recovery.near_m, blocked=True) is None
+    t0 += steps * DT_S
+    for k in range(steps):  # blocked and still, the limit letting go every half stall: waits
+        blocked = (k + 1) % int(0.5 * recovery.stall_s / DT_S) != 0
+        assert recovery.command(t0 + k * DT_S, q, HAND, 0.3, blocked=blocked) is None
+    t0 += steps * DT_S
     started = None
-    for k in range(2 * steps):  # blocked, no progress: after stall_s, toward home
-        out = recovery.command(t0 + k * DT_S, q, 0.3, blocked=True)
+    for k in range(steps):  # blocked, the hand still: after stall_s, toward home
+        out = recovery.command(t0 + k * DT_S, q, HAND + 0.004 * np.sin(k), 0.3, blocked=True)
         if out is not None:
             started = k * DT_S
             break
@@ -95,27 +103,29 @@ def test_the_recovery_starts_only_after_a_stall_at_joint_limits_of_stall_s():
     assert np.max(np.abs(out) / recovery.velocity_limit_rad_s) <= recovery.speed_share + 1e-12
 
 
+def _stall(recovery: PostureRecovery, q: np.ndarray) -> tuple[float, int]:
+    t, k = 0.0, 0
+    while recovery.command(t, q, HAND, 0.3, blocked=True) is None:
+        k += 1
+        t = k * DT_S
+    return t, k
+
+
 def test_the_recovery_ends_at_home_or_when_its_own_move_is_stuck():
     recovery = _recovery()
     q = np.array([1.0, -0.5, 0.2])
-    t, k = 0.0, 0
-    while recovery.command(t, q, 0.3, blocked=True) is None:
-        k += 1
-        t = k * DT_S
+    t, k = _stall(recovery, q)
     moving = q.copy()
-    while (out := recovery.command(t, moving, 0.3, blocked=True)) is not None:  # followed exactly
+    while (out := recovery.command(t, moving, HAND, 0.3, blocked=True)) is not None:  # followed exactly
         moving = moving + out * DT_S
         k += 1
         t = k * DT_S
     assert np.max(np.abs(moving)) <= recovery.home_rad and not recovery.recovering
-    assert recovery.command(t + DT_S, moving, 0.3, blocked=True) is None  # the task resumes
+    assert recovery.command(t + DT_S, moving, HAND, 0.3, blocked=True) is None  # the task resumes
     stuck = _recovery()
-    t, k = 0.0, 0
-    while stuck.command(t, q, 0.3, blocked=True) is None:
-        k += 1
-        t = k * DT_S
+    t, k = _stall(stuck, q)
     start = t
-    while stuck.command(t, q, 0.3, blocked=True) is not None:  # the posture never moves: given up
+    while stuck.command(t, q, HAND, 0.3, blocked=True) is not None:  # the posture never moves: given up
         k += 1
         t = k * DT_S
     assert t - start == pytest.approx(stuck.stall_s, abs=1.5 * DT_S) and not stuck.recovering
