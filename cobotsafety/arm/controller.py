@@ -12,10 +12,12 @@ paper 1's comparison set and paper 2's field:
   every other limitation as the anticipative filter does;
 * ``off``: no safety filter: only the robot's own speed, acceleration and jerk limits.
 
-The command is checked once, here: a non-finite velocity or period gives the zero-change
-command (the arm holds its motion's decay) and a logged reason, never a NaN state; a period
-longer than ``MAX_STEP_S`` is split into steps of at most that (at most ``MAX_PERIOD_S`` in all,
-else refused). Around the filter:
+``step(v)`` takes the hand's velocity; ``step_joints(qdot)`` a joint velocity (a posture move,
+``control.recovery``), followed in joint space by the same filter. The command is checked once,
+here: a non-finite velocity or period gives the zero-change command (the arm holds its
+motion's decay) and a logged reason, never a NaN state; a period longer than ``MAX_STEP_S`` is
+split into steps of at most that (at most ``MAX_PERIOD_S`` in all, else refused). Around the
+filter:
 
 * **Hold and return**: a zero command (the gizmo released) holds the pose the hand was left at:
   the command becomes an attraction to that point (``HOLD_GAIN_PER_S``, at most
