@@ -10,7 +10,7 @@ import scipy.optimize
 
 from cobotsafety.arm.joint_filter import (LEVEL_EXACT, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LIMITATION, MOTION, PLAN,
                                           RECOVERY, SPEED_CUTS, VELOCITY, filter_rows)
-from oracles.joint_filter import filter_qp, lexicographic_qp
+from oracles.joint_filter import filter_qp, lexicographic_qp, stage1_objective
 from oracles.projection import kkt_residual, paper_rule_2d
 
 NO_CAP = np.inf
@@ -127,13 +127,19 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
             continue
         assert level == level_expected
         # Stage 1 weighs the command by w = RELAXATION_COMMAND_WEIGHT (1e-2): its rows are
-        # ``N B / w``, entries up to ~1e4, and both solvers land within ~2e-6 of each other
-        # (seed 42: worst 1.7e-6 on violations of ~1, the kernel's stage-1 objective above
-        # quadprog's by at most 5e-6 of ~6).
-        np.testing.assert_allclose(violation[:count], violation_qp, rtol=0, atol=1e-5)
+        # ``N B / w``, entries up to ~1e4, and its optimum can be flat along a row: two solvers
+        # rounding differently land at different violations of the same objective (seed 42,
+        # problem 224: 1.3e-4 apart on an AMD EPYC, objectives equal to 1e-7; under 2e-6 apart
+        # on an Intel Xeon). So the kernel's violations must reach quadprog's optimum (to 1e-5
+        # relative: seed 42's worst 1.4e-6), and agree with them to 1e-3.
+        hair = 1e-6 * max(1.0, float(np.abs(b[:count]).max()))  # relax_kernel's acceptance (below)
+        optimum = stage1_objective(q0, B, N[:count], b[:count], violation_qp, hair)
+        reached = stage1_objective(q0, B, N[:count], b[:count], violation[:count], hair)
+        assert reached <= optimum * (1.0 + 1e-5) + 1e-12, (k, reached, optimum)
+        np.testing.assert_allclose(violation[:count], violation_qp, rtol=0, atol=1e-3)
         # Stage 2 moves that difference to the command through its active set (``Z / eps``:
-        # entries up to ~100): seed 42's worst 2.2e-5 rad/s.
-        np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-4)
+        # entries up to ~100): seed 42's worst 1.3e-4 rad/s (2.2e-5 on the Xeon).
+        np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-3)
         hard = ~soft
         worst_hard = float(np.max(b[:count][hard] - N[:count][hard] @ qdot))
         # The limitation and speed rows hold, to relax_kernel's acceptance (1e-6 of the bounds'

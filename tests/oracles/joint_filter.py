@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import quadprog
 
+from cobotsafety.least_distance import RELAXATION_COMMAND_WEIGHT
+
 from .projection import quadprog_relaxation
 
 
@@ -31,3 +33,13 @@ def lexicographic_qp(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray
     floor = np.full(len(b), -np.inf) if floors is None else floors - N @ q0
     z, violation = quadprog_relaxation(np.zeros(B.shape[1]), G, h, soft, floor, slack=0.0)
     return q0 + B @ z, violation
+
+
+def stage1_objective(q0: np.ndarray, B: np.ndarray, N: np.ndarray, b: np.ndarray, violation: np.ndarray,
+                     slack: float = 1e-9) -> float:
+    """Stage 1's objective at the relaxation ``violation``: ``w^2 ||z||^2 + ||violation||^2``
+    with ``z`` the least command meeting the relaxed rows (``N (q0 + B z) >= b - violation -
+    slack``; ``slack`` a hair for the rounding of a solver's own active rows)."""
+    qdot = filter_qp(q0, B, N, b - violation - slack)
+    z = np.linalg.lstsq(B, qdot - q0, rcond=None)[0]
+    return float(RELAXATION_COMMAND_WEIGHT ** 2 * z @ z + violation @ violation)
