@@ -156,8 +156,7 @@ def _log3_tolerance(angle: float) -> float:
     """1e-12, times the arccos branch's amplification of the trace's rounding (1 / sin(angle),
     at most 100: the axis branch takes over 3.5 mrad from pi). The same formulas rounded by
     another build or CPU differ that much: pinocchio 4.1's wheel and ours on an AMD EPYC by up
-    to 2.9e-12 at 10 mrad from pi (pinocchio 3 and ours on an Intel Xeon: under 1e-12). A wrong
-    branch errs by 1e-3 or more."""
+    to 2.9e-12 at 10 mrad from pi (pinocchio 3 and ours on an Intel Xeon: under 1e-12)."""
     return 1e-12 * min(1.0 / max(np.sin(angle), 1e-300), 100.0) if angle > 0.5 * np.pi else 1e-12
 
 
