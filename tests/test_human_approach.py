@@ -30,7 +30,7 @@ JSON_KEYS = {"scenario", "recording", "robot", "controller", "ssm", "min_distanc
              "min_distance_one_capsule_m", "min_distance_true_m", "estimate_error_at_closest_m", "closest_time_s",
              "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s", "stop_go_transitions",
              "protective_stop_time_s", "max_ee_accel_m_s2", "max_joint_velocity_ratio", "max_joint_acceleration_ratio",
-             "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "safety_over_smoothness_steps"}
+             "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "safety_over_smoothness_steps", "posture_recoveries"}
 
 
 @pytest.mark.parametrize("scenario", ["exp1", "exp2", "reach-over", "exp1-corner", "exp2-corner"])
