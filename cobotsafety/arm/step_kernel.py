@@ -610,8 +610,13 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     # speed (``brake_share``: the rest in reserve, as for braking; at the command's cap a
     # retreat went at 0.5 m/s from people coming at 1-2 m/s).
     flee_cap = max(speed_cap, brake_share * ee_speed)
+    # The bounds brake within the motion box's own limits (``MOTION_MARGIN`` inside the robot's):
+    # with the full limits a safety bound could ask for 1e-4 more than the box gives, and on an
+    # AMD EPYC's rounding an iiwa release at its extended reach gave up smoothness for that
+    # (2 steps, jerk 1.02 times the limit: 1.4e-6 rad/s past the box).
     brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, m, q0, qdot_prev, qddot_prev,
-                                     ee_speed_prev, dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m,
+                                     ee_speed_prev, dt_s, MOTION_MARGIN * acc, MOTION_MARGIN * jerk, vel,
+                                     MOTION_MARGIN * ee_acc, MOTION_MARGIN * ee_jerk, brake_share, buffer_m,
                                      buffer_rad, recovery_gain, width_m, width_rad, speed_cap, flee_cap,
                                      ssm, ssm_params, bounds, keep, safe_bounds, safe_keep, recovering,
                                      ramp)
