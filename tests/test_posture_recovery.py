@@ -72,29 +72,35 @@ def _recovery() -> PostureRecovery:
 
 
 HAND = np.array([0.5, 0.0, 0.4])
+TARGET = HAND + [0.3, 0.0, 0.0]
 
 
-def test_the_recovery_starts_only_after_the_hand_stood_at_joint_limits_for_stall_s():
+def test_the_recovery_starts_only_after_the_hand_came_no_closer_at_joint_limits_for_stall_s():
     q = np.array([1.0, -0.5, 0.2])
     recovery = _recovery()
     steps = int(2 * recovery.stall_s / DT_S)
     t0 = 0.0
     for k in range(steps):  # not blocked by a joint limit (e.g. a person in the way): waits
-        assert recovery.command(t0 + k * DT_S, q, HAND, 0.3, blocked=False) is None
+        assert recovery.command(t0 + k * DT_S, q, HAND, TARGET, blocked=False) is None
     t0 += steps * DT_S
-    for k in range(steps):  # blocked, crawling along the limit at 10 mm/s: making its way
-        assert recovery.command(t0 + k * DT_S, q, HAND + [0.0, 0.01 * k * DT_S, 0.0], 0.3, blocked=True) is None
+    for k in range(steps):  # blocked, crawling toward the target at 10 mm/s: making its way
+        assert recovery.command(t0 + k * DT_S, q, HAND + [0.01 * k * DT_S, 0.0, 0.0], TARGET, blocked=True) is None
     t0 += steps * DT_S
-    for k in range(steps):  # blocked and still, but the target within reach (the path moves on): waits
-        assert recovery.command(t0 + k * DT_S, q, HAND, recovery.near_m, blocked=True) is None
+    for k in range(steps):  # blocked, trailing a target that moves at the path's lag: making its way
+        moved = [0.0, 0.12 * k * DT_S, 0.0]
+        assert recovery.command(t0 + k * DT_S, q, HAND + moved, TARGET + moved, blocked=True) is None
+    t0 += steps * DT_S
+    for k in range(steps):  # blocked and still, but the target within reach: waits
+        assert recovery.command(t0 + k * DT_S, q, HAND, HAND + [0.9 * recovery.near_m, 0, 0], blocked=True) is None
     t0 += steps * DT_S
     for k in range(steps):  # blocked and still, the limit letting go every half stall: waits
         blocked = (k + 1) % int(0.5 * recovery.stall_s / DT_S) != 0
-        assert recovery.command(t0 + k * DT_S, q, HAND, 0.3, blocked=blocked) is None
+        assert recovery.command(t0 + k * DT_S, q, HAND, TARGET, blocked=blocked) is None
     t0 += steps * DT_S
     started = None
-    for k in range(steps):  # blocked, the hand still: after stall_s, toward home
-        out = recovery.command(t0 + k * DT_S, q, HAND + 0.004 * np.sin(k), 0.3, blocked=True)
+    for k in range(steps):  # blocked, circling 3 cm wide short of the target: after stall_s, toward home
+        loop = 0.015 * np.array([np.cos(2 * np.pi * k * DT_S), np.sin(2 * np.pi * k * DT_S), 0.0])
+        out = recovery.command(t0 + k * DT_S, q, HAND + loop, TARGET, blocked=True)
         if out is not None:
             started = k * DT_S
             break
@@ -105,7 +111,7 @@ def test_the_recovery_starts_only_after_the_hand_stood_at_joint_limits_for_stall
 
 def _stall(recovery: PostureRecovery, q: np.ndarray) -> tuple[float, int]:
     t, k = 0.0, 0
-    while recovery.command(t, q, HAND, 0.3, blocked=True) is None:
+    while recovery.command(t, q, HAND, TARGET, blocked=True) is None:
         k += 1
         t = k * DT_S
     return t, k
@@ -116,16 +122,16 @@ def test_the_recovery_ends_at_home_or_when_its_own_move_is_stuck():
     q = np.array([1.0, -0.5, 0.2])
     t, k = _stall(recovery, q)
     moving = q.copy()
-    while (out := recovery.command(t, moving, HAND, 0.3, blocked=True)) is not None:  # followed exactly
+    while (out := recovery.command(t, moving, HAND, TARGET, blocked=True)) is not None:  # followed exactly
         moving = moving + out * DT_S
         k += 1
         t = k * DT_S
     assert np.max(np.abs(moving)) <= recovery.home_rad and not recovery.recovering
-    assert recovery.command(t + DT_S, moving, HAND, 0.3, blocked=True) is None  # the task resumes
+    assert recovery.command(t + DT_S, moving, HAND, TARGET, blocked=True) is None  # the task resumes
     stuck = _recovery()
     t, k = _stall(stuck, q)
     start = t
-    while stuck.command(t, q, HAND, 0.3, blocked=True) is not None:  # the posture never moves: given up
+    while stuck.command(t, q, HAND, TARGET, blocked=True) is not None:  # the posture never moves: given up
         k += 1
         t = k * DT_S
     assert t - start == pytest.approx(stuck.stall_s, abs=1.5 * DT_S) and not stuck.recovering

@@ -7,12 +7,13 @@ free joints' hand motion nearly orthogonal to the command), the closest feasible
 zero and the task waits for good. Nothing local unwinds such a posture: it needs a move in
 joint space.
 
-``PostureRecovery`` watches the task each step. The hand is *stalled* when the target is out of
-its reach (farther than ``near_m``: the path waits for the hand), every step slides on a joint
+``PostureRecovery`` watches the task each step. The hand is *stalled* when its target stands
+(the path waits for the hand: it lags by more than ``near_m``), every step slides on a joint
 limit and on no person's row (``ArmController.blocked_by_joint_limits``: a person in the way is
-waited for, not driven around), and the hand has moved less than ``progress_m`` in ``stall_s``
-(it stands; a hand that crawls along a limit, or trails a moving target, is making its way).
-Then it commands a joint-space move to the home posture
+waited for, not driven around), and the hand has come no closer to the target than
+``progress_m`` better than its best for ``stall_s`` (standing, or circling at the limits: an
+iiwa's hand went round a 3 cm loop 5-8 cm from its target for 30 s; a hand that crawls toward
+the target along a limit, or trails a moving target, is making its way). Then it commands a joint-space move to the home posture
 (``ArmController.step_joints``: the same filter, every limitation and motion limit kept; a
 person arriving meanwhile is kept as always) until every joint is within ``home_rad`` of home;
 the task resumes from there (the path still waits where it was). A move home that itself
@@ -23,9 +24,10 @@ Settings, from stated principles (fixed before any campaign figure):
 * ``stall_s`` = 2 s: the task's slowest legitimate wait that is not a person in the way is the
   hand braking and turning at a corner of its path (0.12 m/s, a fraction of a second); a yield
   (0.3 s) is a person's and excluded anyway; twice a second to be sure;
-* ``progress_m`` = 10 mm: 5 mm/s on average, 4 % of the task's speed (a first version, 1 s and
-  10 mm closer to the target, also moved arms that were trailing a moving target at the path's
-  lag along a joint limit: 9 of the iiwa's first 214 campaign people, each losing ~6 s more);
+* ``progress_m`` = 10 mm: 5 mm/s on average, 4 % of the task's speed (a first version, 1 s
+  without coming 10 mm closer to a target that might be moving, also moved arms trailing the
+  path at its lag along a joint limit: 9 of the iiwa's first 214 campaign people, ~6 s lost
+  each; a second, the hand moving under 10 mm in 2 s, missed the circling hand above);
 * ``gain_per_s`` = 1 /s toward home, each joint at most half its speed limit (the secondary
   task's share, ``task.task_mapping``);
 * ``home_rad`` = 0.05 rad: home to within a few centimetres of the hand.
@@ -59,7 +61,7 @@ class PostureRecovery:
     """Posture moves started."""
     _since_s: float = 0.0
     _best: float = np.inf
-    _anchor: np.ndarray | None = None
+    _target: np.ndarray | None = None
 
     def __post_init__(self):
         self.q_home_rad = np.array(self.q_home_rad, dtype=float)
@@ -68,17 +70,16 @@ class PostureRecovery:
             raise ValueError(f"q_home_rad {self.q_home_rad.shape} and velocity_limit_rad_s "
                              f"{self.velocity_limit_rad_s.shape} must have the same shape (a revolute arm)")
 
-    def _restart(self, t_s: float, measure: float, anchor: np.ndarray | None = None) -> None:
-        self._since_s, self._best, self._anchor = t_s, measure, anchor
+    def _restart(self, t_s: float, measure: float, target: np.ndarray | None = None) -> None:
+        self._since_s, self._best, self._target = t_s, measure, target
 
-    def command(self, t_s: float, q_rad: np.ndarray, p_hand_m: np.ndarray, target_distance_m: float,
+    def command(self, t_s: float, q_rad: np.ndarray, p_hand_m: np.ndarray, p_target_m: np.ndarray,
                 blocked: bool) -> np.ndarray | None:
         """The joint velocity of the posture move [rad/s] (nv,), or None: follow the task.
 
-        ``t_s`` the time [s]; ``q_rad`` the joints now; ``p_hand_m`` (3,) the hand [m];
-        ``target_distance_m`` the hand's distance to the task's target [m]; ``blocked`` the last
-        step slid on a joint limit and on no person's row
-        (``ArmController.blocked_by_joint_limits``)."""
+        ``t_s`` the time [s]; ``q_rad`` the joints now; ``p_hand_m`` (3,) the hand and
+        ``p_target_m`` (3,) the task's target now [m]; ``blocked`` the last step slid on a joint
+        limit and on no person's row (``ArmController.blocked_by_joint_limits``)."""
         if self.recovering:
             offset = self.q_home_rad - q_rad
             remaining = float(np.max(np.abs(offset)))
@@ -95,15 +96,17 @@ class PostureRecovery:
             qdot = self.gain_per_s * offset
             ratio = float(np.max(np.abs(qdot) / (self.speed_share * self.velocity_limit_rad_s)))
             return qdot / ratio if ratio > 1.0 else qdot
-        if not blocked or target_distance_m <= self.near_m:
+        distance = float(np.linalg.norm(p_target_m - p_hand_m))
+        if not blocked or distance <= self.near_m:
             self._restart(t_s, np.inf)
             return None
-        if self._anchor is None or float(np.linalg.norm(p_hand_m - self._anchor)) > self.progress_m:
-            self._restart(t_s, np.inf, np.array(p_hand_m, dtype=float))
+        if self._target is None or float(np.linalg.norm(p_target_m - self._target)) > 1e-9 \
+                or distance < self._best - self.progress_m:  # a target that moves, or progress
+            self._restart(t_s, distance, np.array(p_target_m, dtype=float))
             return None
         if t_s - self._since_s < self.stall_s:
             return None
         self.recovering = True
         self.count += 1
         self._restart(t_s, np.inf)
-        return self.command(t_s, q_rad, p_hand_m, target_distance_m, blocked)
+        return self.command(t_s, q_rad, p_hand_m, p_target_m, blocked)

@@ -127,8 +127,9 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
         human = humans[k]
         present = human is not None and human.present
         p_ee = state.p_world_ee
-        error = path.advance(p_ee, dt_s) - p_ee
-        posture = recovery.command(t, state.q, p_ee, float(np.linalg.norm(error)), blocked)
+        target = path.advance(p_ee, dt_s)
+        error = target - p_ee
+        posture = recovery.command(t, state.q, p_ee, target, blocked)
         if posture is None:
             v_att = pi.update(error, dt_s)
             out = approach_step.step(controller, human if present else None, v_att, dt_s)
