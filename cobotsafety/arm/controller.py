@@ -55,8 +55,9 @@ from cobotsafety.arm.limitations.registry import pack_scene
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
-from cobotsafety.arm.step_kernel import (FLAG_JOINT_COMMAND, FLAG_ORIENTATION, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP,
-                                         OUT_I_HEADER, OWNER_EE_MOTION, OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
+from cobotsafety.arm.step_kernel import (FLAG_JOINT_COMMAND, FLAG_ORIENTATION, FLAG_PROTECTIVE,
+                                         FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP, OUT_I_HEADER, OWNER_EE_MOTION,
+                                         OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
                                          STATUS_DONE, STRATEGIES, arm_step, decode_row, output_layout)
 from cobotsafety.arm.step_report import ArmStepReport
 from cobotsafety.errors import CobotSafetyError
@@ -316,7 +317,7 @@ class ArmController:
     def step(self, v_desired_m_s, dt_s: float, method: str = "anticipative") -> ArmStepReport:
         """Filter ``v_desired_m_s`` (shape (3,)) [m/s] with ``method``, integrate over ``dt_s``
         [s], report. See the module docstring for bad input."""
-        return self._step(v_desired_m_s, "v_desired_m_s", 3, dt_s, method)
+        return self._step(v_desired_m_s, "v_desired_m_s", 3, False, dt_s, method)
 
     def step_joints(self, qdot_desired_rad_s, dt_s: float, method: str = "anticipative") -> ArmStepReport:
         """A posture move: follow the joint velocity ``qdot_desired_rad_s`` (shape (nv,)) [rad/s]
@@ -324,9 +325,9 @@ class ArmController:
         limits and speed cap as ``step``), integrate over ``dt_s`` [s], report (its
         ``v_desired_m_s``: the hand velocity the command alone would give). A task's recovery
         from a joint-limit deadlock uses it (``control.recovery``). Bad input as for ``step``."""
-        return self._step(qdot_desired_rad_s, "qdot_desired_rad_s", self.model.nv, dt_s, method)
+        return self._step(qdot_desired_rad_s, "qdot_desired_rad_s", self.model.nv, True, dt_s, method)
 
-    def _step(self, command, name: str, size: int, dt_s: float, method: str) -> ArmStepReport:
+    def _step(self, command, name: str, size: int, joint: bool, dt_s: float, method: str) -> ArmStepReport:
         strategy = _STRATEGY_CODES.get(method)
         if strategy is None:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -335,7 +336,6 @@ class ArmController:
             v = np.asarray(command, dtype=float).reshape(-1)
             if v.shape != (size,):
                 raise ValueError(f"{name} must have shape ({size},), got {np.shape(command)}")
-        joint = size != 3 or name != "v_desired_m_s"
         reason = ""
         if not (type(dt_s) in (float, int) or isinstance(dt_s, (float, int, np.floating))) or not math.isfinite(dt_s) \
                 or dt_s <= 0.0:
@@ -418,7 +418,9 @@ class ArmController:
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
         before = self.state.out_f  # the previous step's output: the kinematics at q
-        status = arm_step(self._state_f, before, (np.zeros_like(v) if joint else _ZERO3) if yielding else v, dt_s, strategy, flags, ahead, self._reference_f,
+        if yielding:
+            v = np.zeros_like(v) if joint else _ZERO3
+        status = arm_step(self._state_f, before, v, dt_s, strategy, flags, ahead, self._reference_f,
                           self.model.robot_i, self.model.robot_f, self._scene_i, self._scene_f, human_f,
                           self._settings_f, out_f, out_i)
         if status != STATUS_DONE:

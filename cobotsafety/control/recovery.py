@@ -13,11 +13,12 @@ limit and on no person's row (``ArmController.blocked_by_joint_limits``: a perso
 waited for, not driven around), and the hand has come no closer to the target than
 ``progress_m`` better than its best for ``stall_s`` (standing, or circling at the limits: an
 iiwa's hand went round a 3 cm loop 5-8 cm from its target for 30 s; a hand that crawls toward
-the target along a limit, or trails a moving target, is making its way). Then it commands a joint-space move to the home posture
-(``ArmController.step_joints``: the same filter, every limitation and motion limit kept; a
-person arriving meanwhile is kept as always) until every joint is within ``home_rad`` of home;
-the task resumes from there (the path still waits where it was). A move home that itself
-makes less than ``progress_rad`` of progress for ``stall_s`` is given up (the task resumes).
+the target along a limit, or trails a moving target, is making its way). Then it commands a
+joint-space move to the home posture (``ArmController.step_joints``: the same filter, every
+limitation and motion limit kept; a person arriving meanwhile is kept as always) until every
+joint is within ``home_rad`` of home; the task resumes from there (the path still waits where it
+was). A move home that itself makes less than ``progress_rad`` of progress for ``stall_s`` is
+given up (the task resumes).
 
 Settings, from stated principles (fixed before any campaign figure):
 
