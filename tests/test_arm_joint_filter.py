@@ -19,7 +19,8 @@ NO_CAP = np.inf
 def filtered(q0, B, N, b, group, count, J, speed_cap, speed_limit, ramp=None):
     """``filter_rows`` with the recoveries easing straight to approach nothing (``ramp`` None)."""
     ramp = np.zeros(len(b)) if ramp is None else ramp
-    return filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit)
+    return filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit, np.zeros(3), np.zeros(3),
+                       speed_cap)
 
 
 def tolerance(B: np.ndarray) -> float:

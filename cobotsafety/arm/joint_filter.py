@@ -30,7 +30,8 @@ result equal to quadprog's on random problems), in five groups by priority:
   velocities the next step may take from the previous one;
 * ``PLAN``: each limitation's *planning* bound, the same with a share of the motion limits
   (``FilterSettings.brake_share``): the arm plans to brake gently, and has the rest in reserve;
-  and the command's speed cap. The end-effector's speeds are norms (``||J qdot|| <= cap``),
+  and the command's speed cap, on the velocity the hand reaches once its acceleration has
+  ramped down (``filter_rows``). The end-effector's speeds are norms (``||J qdot|| <= cap``),
   met by adding the ball's tangent plane at the solution as a row, at most ``SPEED_CUTS``
   times.
 
@@ -58,7 +59,7 @@ LIMITATION, VELOCITY, MOTION, PLAN, RECOVERY = 0, 1, 2, 3, 4
 #: relaxed; approaching nothing; stopped.
 LEVEL_EXACT, LEVEL_SMOOTHNESS, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3, 4
 #: The most tangent planes the end-effector's speed cap may add.
-SPEED_CUTS = 3
+SPEED_CUTS = 8
 #: A row counts as binding when the command is within this of its bound (same unit as ``b``).
 BINDING_TOLERANCE = 1e-9
 
@@ -174,10 +175,23 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
-def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit):  # pragma: no cover - compiled
+def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit, ee_prev, lead, ahead_cap):  # pragma: no cover - compiled
     """The filtered joint velocity for the rows ``N[:count] @ qdot >= b[:count]`` (groups
-    ``group``), ``qdot = q0 + B z``, and the end-effector's speed: ``||J qdot|| <= speed_cap``
-    (the command's cap: planned, a ``PLAN`` row) and ``<= speed_limit`` (the robot's: hard).
+    ``group``), ``qdot = q0 + B z``, and the end-effector's speed: ``||J qdot|| <= speed_limit``
+    (the robot's: hard), ``<= speed_cap`` (the command's cap this step: planned, a ``PLAN``
+    row), and the command's cap ``ahead_cap`` (planned) on the velocity the hand reaches once
+    its acceleration has ramped down to zero::
+
+        ||u + lead * (u - ee_prev)|| <= ahead_cap,   u = J qdot
+
+    ``ee_prev`` (3,): the hand's previous velocity seen through ``J``; ``lead`` (3,) per axis,
+    ``|a| / (2 j dt) + 1`` from the hand's previous acceleration ``a`` and its jerk limit ``j``:
+    an axis accelerating at ``a'`` gains ``a' |a'| / 2j + a' dt / 2`` while its acceleration
+    ramps down in steps of ``dt`` (``step_kernel.ramp_acceleration``'s ramp), at most
+    ``lead a' dt`` since ``|a'| <= |a| + j dt``. So the hand turning at the cap does not build an
+    acceleration it can only shed beyond it (the xArm 7's 50 m/s^2 and 100 m/s^3 took a turning
+    hand from the 0.5 m/s cap to its own 1 m/s
+    limit). ``lead`` 0: the plain cap.
 
     ``ramp``: for a ``RECOVERY`` row, the retreat it gives way to first (> 0; else straight to
     approach nothing). ``N``, ``b``, ``ramp``, ``group`` have room for ``SPEED_CUTS`` more rows
@@ -192,15 +206,27 @@ def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit):  # 
             break
         ee = matvec(J, qdot)
         speed = np.sqrt(np.sum(ee * ee))
-        if speed <= speed_cap * (1.0 + 1e-9):
+        ahead = ee + lead * (ee - ee_prev)
+        ahead_speed = np.sqrt(np.sum(ahead * ahead))
+        if speed > speed_cap * (1.0 + 1e-9):
+            # The tangent plane at the solution of the ball it leaves: e . (J qdot) <= limit or cap.
+            hard = speed > speed_limit * (1.0 + 1e-9)
+            e = ee / speed
+            for k in range(N.shape[1]):
+                N[rows, k] = -(e[0] * J[0, k] + e[1] * J[1, k] + e[2] * J[2, k])
+            b[rows] = -(speed_limit if hard else speed_cap)
+            group[rows] = LIMITATION if hard else PLAN
+        elif ahead_speed > ahead_cap * (1.0 + 1e-9):
+            # The cap's tangent plane at the solution: e . ((1 + lead) J qdot - lead ee_prev) <= cap.
+            e = ahead / ahead_speed
+            for k in range(N.shape[1]):
+                N[rows, k] = -(e[0] * (1.0 + lead[0]) * J[0, k] + e[1] * (1.0 + lead[1]) * J[1, k]
+                               + e[2] * (1.0 + lead[2]) * J[2, k])
+            b[rows] = -(ahead_cap + e[0] * lead[0] * ee_prev[0] + e[1] * lead[1] * ee_prev[1]
+                        + e[2] * lead[2] * ee_prev[2])
+            group[rows] = PLAN
+        else:
             break
-        # The cap's tangent plane at the solution: e . (J qdot) <= cap, e = J qdot / |J qdot|.
-        hard = speed > speed_limit * (1.0 + 1e-9)
-        e = ee / speed
-        for k in range(N.shape[1]):
-            N[rows, k] = -(e[0] * J[0, k] + e[1] * J[1, k] + e[2] * J[2, k])
-        b[rows] = -(speed_limit if hard else speed_cap)
-        group[rows] = LIMITATION if hard else PLAN
         rows += 1
         qdot, violation, level = _solve(q0, B, N, b, ramp, group, rows, level)
     return qdot, violation, level, rows

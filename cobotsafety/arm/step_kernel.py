@@ -731,6 +731,8 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     cap = ee_speed if strategy == OFF else (flee_cap if fleeing else speed_cap)
     if strategy == ANTICIPATIVE and not fleeing and hand_speed > speed_cap:
         cap = min(flee_cap, max(speed_cap, hand_speed - brake_share * EE_AXIS_SHARE * ee_acc * dt_s))
+    ahead_cap = cap
+    lead = np.zeros(3)
     if strategy != OFF:
         # Toward the cap the hand's acceleration must ramp down at its jerk limit before it
         # gets there, as ``motion_box`` asks of a joint toward its speed limit: this step's cap
@@ -740,7 +742,14 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         room = cap - hand_speed
         if room > 0.0:
             cap = min(cap, hand_speed + ramp_acceleration(room, EE_AXIS_SHARE * ee_jerk, dt_s) * dt_s)
-    qdot, violation, level, rows = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap, ee_speed)
+        # And in every direction (a turning hand): the cap bounds the velocity the hand reaches
+        # once its acceleration has ramped down, per axis ``v' + a' |a'| / 2j + a' dt``, ``|a'|``
+        # at most the previous step's plus a jerk step (``filter_rows``'s ``lead``).
+        ee_acceleration_prev = matvec(J, qddot_prev)
+        for r in range(3):
+            lead[r] = abs(ee_acceleration_prev[r]) / (2.0 * EE_AXIS_SHARE * ee_jerk * dt_s) + 1.0
+    qdot, violation, level, rows = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap, ee_speed,
+                                               ee_velocity_prev, lead, ahead_cap)
     # The solver meets each row to its tolerance in its own units (rows scaled to unit length in
     # the task's coordinates), which through a task mapping near a singularity is up to ~1e-8
     # rad/s of a joint's velocity: a few 1e-4 of a jerk step at 1 kHz. The joints' speed limits
