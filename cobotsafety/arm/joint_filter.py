@@ -190,8 +190,7 @@ def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit, ee_p
     ramps down in steps of ``dt`` (``step_kernel.ramp_acceleration``'s ramp), at most
     ``lead a' dt`` since ``|a'| <= |a| + j dt``. So the hand turning at the cap does not build an
     acceleration it can only shed beyond it (the xArm 7's 50 m/s^2 and 100 m/s^3 took a turning
-    hand from the 0.5 m/s cap to its own 1 m/s
-    limit). ``lead`` 0: the plain cap.
+    hand from the 0.5 m/s cap to its own 1 m/s limit). ``lead`` 0: the plain cap.
 
     ``ramp``: for a ``RECOVERY`` row, the retreat it gives way to first (> 0; else straight to
     approach nothing). ``N``, ``b``, ``ramp``, ``group`` have room for ``SPEED_CUTS`` more rows
@@ -208,25 +207,24 @@ def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit, ee_p
         speed = np.sqrt(np.sum(ee * ee))
         ahead = ee + lead * (ee - ee_prev)
         ahead_speed = np.sqrt(np.sum(ahead * ahead))
+        # The tangent plane at the solution of the ball it leaves, ``w . (J qdot) <= b``: the
+        # robot's limit or this step's cap (``w = e = J qdot / |J qdot|``), else the cap ahead
+        # (``w = e (1 + lead)``, ``e`` the unit ``ahead``, its bound raised by ``e . lead ee_prev``).
         if speed > speed_cap * (1.0 + 1e-9):
-            # The tangent plane at the solution of the ball it leaves: e . (J qdot) <= limit or cap.
             hard = speed > speed_limit * (1.0 + 1e-9)
-            e = ee / speed
-            for k in range(N.shape[1]):
-                N[rows, k] = -(e[0] * J[0, k] + e[1] * J[1, k] + e[2] * J[2, k])
+            w = ee / speed
             b[rows] = -(speed_limit if hard else speed_cap)
             group[rows] = LIMITATION if hard else PLAN
         elif ahead_speed > ahead_cap * (1.0 + 1e-9):
-            # The cap's tangent plane at the solution: e . ((1 + lead) J qdot - lead ee_prev) <= cap.
             e = ahead / ahead_speed
-            for k in range(N.shape[1]):
-                N[rows, k] = -(e[0] * (1.0 + lead[0]) * J[0, k] + e[1] * (1.0 + lead[1]) * J[1, k]
-                               + e[2] * (1.0 + lead[2]) * J[2, k])
+            w = e * (1.0 + lead)
             b[rows] = -(ahead_cap + e[0] * lead[0] * ee_prev[0] + e[1] * lead[1] * ee_prev[1]
                         + e[2] * lead[2] * ee_prev[2])
             group[rows] = PLAN
         else:
             break
+        for k in range(N.shape[1]):
+            N[rows, k] = -(w[0] * J[0, k] + w[1] * J[1, k] + w[2] * J[2, k])
         rows += 1
         qdot, violation, level = _solve(q0, B, N, b, ramp, group, rows, level)
     return qdot, violation, level, rows
