@@ -43,26 +43,27 @@ def human_tuple(p0, p1, radius, v0, v1, ahead_s: float = 0.0):
 def compiled_rows(pack, model: RobotModel, kin, hum, activation_m: float):
     """Every limitation's active rows ``(dist, A, rate, angular, tag)`` and every distance
     measured (``before``), filled as the step fills them (``compiled_pulls``: with their pulls)."""
-    *rows, pull, before = compiled_pulls(pack, model, kin, hum, activation_m)
+    *rows, pull, drift, before = compiled_pulls(pack, model, kin, hum, activation_m)
     return *rows, before
 
 
 def compiled_pulls(pack, model: RobotModel, kin, hum, activation_m: float):
-    """``compiled_rows`` with each row's curvature pull [m/s^2] before ``before``."""
+    """``compiled_rows`` with each row's curvature pull and its point's drift [m/s^2] before
+    ``before``."""
     n_caps, L, n_human = len(model.capsules), len(model.limited), hum[2].shape[0]
     sizes = [kind_count(int(k), pack.reals[i], int(pack.skips[i]), n_caps, L, n_human) for i, k in enumerate(pack.kinds)]
     assert all(s >= 0 for s in sizes), sizes
     total = int(sum(sizes))
     dist, A, rate = np.empty(total), np.empty((total, model.nv)), np.empty(total)
     angular, tag = np.empty(total, dtype=np.bool_), np.empty((total, 3), dtype=np.int64)
-    pull, before = np.zeros(total), np.empty(total)
+    pull, drift, before = np.zeros(total), np.zeros(total), np.empty(total)
     m, start = 0, 0
     for con, kind in enumerate(pack.kinds):
         activation = pack.reals[con, 1] if kind == human_kind.KIND else activation_m
         m = kind_rows(int(kind), pack.reals[con], int(pack.skips[con]), con, kin, hum, activation,
-                      (dist, A, rate, angular, tag, pull), m, before[start:start + sizes[con]])
+                      (dist, A, rate, angular, tag, pull, drift), m, before[start:start + sizes[con]])
         start += sizes[con]
-    return dist[:m], A[:m], rate[:m], angular[:m], tag[:m], pull[:m], before
+    return dist[:m], A[:m], rate[:m], angular[:m], tag[:m], pull[:m], drift[:m], before
 
 
 def compiled_distances(pack, model: RobotModel, kin, hum) -> list[np.ndarray]:

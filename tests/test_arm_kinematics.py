@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cobotsafety.arm.kinematics import attached_point, integrate, log3, point_jacobian_row
+from cobotsafety.arm.kinematics import attached_point, drift_along, integrate, log3, point_drift, point_jacobian_row
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, OUT_I_HEADER, unpack_robot
@@ -68,6 +68,43 @@ def test_point_jacobian_rows_equal_pinocchio(name):
             p = op[joint] + rng.normal(size=3) * 0.3
             point_jacobian_row(u, p, joint, oR, op, axes, idx_v, support, out)
             np.testing.assert_allclose(out, u @ oracle.point_jacobian(joint, p), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_a_points_drift_equals_pinocchios_classical_acceleration(name):
+    """``point_drift`` (``u . dJ/dt qdot``, what pulls a limitation's row at a joint velocity
+    with no joint acceleration) against pinocchio's classical acceleration of the same point
+    (``forwardKinematics(q, qdot, 0)``: ``a_o + w x v_o + w x (w x r)`` in the joint's frame),
+    for points fixed to every joint and the end-effector's own Jacobian (``drift_along``)."""
+    model = robot(name)
+    unpacked = unpack_robot(model.robot_i, model.robot_f)
+    idx_v, support, axes = unpacked[6], unpacked[7], unpacked[10]
+    rng = np.random.default_rng(250 + ROBOT_NAMES.index(name))
+    data = model.model.createData()
+    scratch = np.empty((6, model.nv))
+    ee = model.model.getFrameId(model.spec.ee_frame)
+    worst = 0.0
+    for _ in range(STATES):
+        q = random_configuration(model.model, rng)
+        qdot = rng.normal(size=model.nv) * 2.0
+        pin.forwardKinematics(model.model, data, q, qdot, np.zeros(model.nv))
+        pin.updateFramePlacements(model.model, data)
+        _, p_ee, _, J6, oR, op, _, _ = compiled_kinematics(model, q)
+        for joint in range(1, model.model.njoints):
+            u = rng.normal(size=3)
+            p = op[joint] + rng.normal(size=3) * 0.3
+            R = data.oMi[joint].rotation
+            r = R.T @ (p - data.oMi[joint].translation)  # the point in the joint's frame
+            v, a = data.v[joint], data.a[joint]
+            w = v.angular
+            classical = R @ (a.linear + np.cross(w, v.linear) + np.cross(w, np.cross(w, r)) + np.cross(a.angular, r))
+            got = point_drift(u, p, joint, oR, op, axes, idx_v, support, qdot, scratch)
+            assert got == pytest.approx(u @ classical, rel=1e-9, abs=1e-10)
+            worst = max(worst, abs(u @ classical))
+        u = rng.normal(size=3)
+        hand = pin.getFrameClassicalAcceleration(model.model, data, ee, pin.LOCAL_WORLD_ALIGNED).linear
+        assert drift_along(u, J6, qdot) == pytest.approx(u @ hand, rel=1e-9, abs=1e-10)
+    assert worst > 1.0  # the drifts compared are not all tiny
 
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)

@@ -141,10 +141,14 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
         size = kind_count(module.KIND, real, skip, n_caps, L, 1)
         assert size > 0, kind_type
         out = (np.empty(size), np.empty((size, model.nv)), np.empty(size), np.empty(size, dtype=np.bool_),
-               np.empty((size, 3), dtype=np.int64), np.zeros(size))
+               np.empty((size, 3), dtype=np.int64), np.zeros(size), np.zeros(size))
         before = np.full(size, np.nan)
         m = kind_rows(module.KIND, real, skip, 0, kin, hum, np.inf, out, 0, before)
-        assert m == size, kind_type  # every distance is a row at an infinite activation distance
+        if kind_type is BoxZone:  # each capsule's closest point, and its ends unless one is that point
+            closest = out[4][:m][out[4][:m, 2] == 0, 1]
+            assert sorted(closest) == list(range(1, n_caps)) and size // 3 * 2 <= m <= size
+        else:
+            assert m == size, kind_type  # every distance is a row at an infinite activation distance
         assert np.all(np.isfinite(before))
         values = np.full(size, np.nan)
         kind_distances(module.KIND, real, skip, kin, hum, values)
@@ -152,7 +156,7 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
     unknown = max(m.KIND for m in KINDS.values()) + 1
     assert kind_count(unknown, np.zeros(12), 0, n_caps, L, 1) == -1
     out = (np.empty(1), np.empty((1, model.nv)), np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 3), dtype=np.int64),
-           np.zeros(1))
+           np.zeros(1), np.zeros(1))
     assert kind_rows(unknown, np.zeros(12), 0, 0, kin, hum, np.inf, out, 0, np.empty(1)) == -1
 
 
@@ -255,14 +259,18 @@ def test_the_extended_reachs_outward_drift_is_the_second_derivative_of_the_radiu
 
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
-def test_each_kind_writes_its_own_curvature_pull_the_extended_reach_alone(name):
-    """The rows' ``pull`` at a random joint velocity: on the extended reach's row, the second
-    derivative of the hand's distance to the sphere's centre as it moves straight on at its
-    velocity now (finite differences of pinocchio's kinematics, independent of the compiled
-    Jacobian); zero on every other row (planes, joint limits, zones and people do not pull)."""
+def test_each_rows_pull_and_drift_are_how_fast_the_arm_coasts_toward_it(name):
+    """The rows' ``pull`` and ``drift`` at a random joint velocity, the arm coasting on (no
+    joint acceleration), against finite differences of pinocchio's kinematics (independent of
+    the compiled Jacobians). ``pull``: on the extended reach's row, the second derivative of the
+    hand's distance to the sphere's centre as it moves straight on at its velocity now; zero on
+    every other row (planes, joint limits, zones and people do not pull). ``drift``: minus the
+    second derivative, along the row's direction, of the row's point carried by its link (the
+    hand for the reach) along ``q (+) t qdot``; zero on the joints' rows."""
     model = robot(name)
     rng = np.random.default_rng(2000 + ROBOT_NAMES.index(name))
-    pulled = 0
+    ee_joint = model.model.frames[model.ee_frame_id].parentJoint
+    pulled, drifted = 0, 0
     for _ in range(10):
         q = random_configuration(model.model, rng)
         qdot = rng.normal(size=model.nv) * rng.uniform(0.1, 1.5)
@@ -271,11 +279,13 @@ def test_each_kind_writes_its_own_curvature_pull_the_extended_reach_alone(name):
         pack = pack_scene(limitations, model)
         kin = compiled_kinematics(model, q, qdot)[0]
         hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, ahead_s)
-        *_, tag, pull, _ = compiled_pulls(pack, model, kin, hum, np.inf)
+        *_, tag, pull, drift, _ = compiled_pulls(pack, model, kin, hum, np.inf)
+        expected, _ = oracle.rows(limitations, kin_o, human.ahead(ahead_s), np.inf)
         h = 1e-6
         v_hand = (Kinematics(model, pin.integrate(model.model, q, qdot * h)).p_ee
                   - Kinematics(model, pin.integrate(model.model, q, -qdot * h)).p_ee) / (2.0 * h)
-        for (con, side, _), got in zip(tag, pull, strict=True):
+        coasted = {t: Kinematics(model, pin.integrate(model.model, q, qdot * t)) for t in (-1e-3, 1e-3)}
+        for (con, side, b), got, got_drift, row in zip(tag, pull, drift, expected, strict=True):
             lim = limitations[con]
             if isinstance(lim, ReachLimits) and side == 1:
                 centre, t = np.array(lim.shoulder), 1e-3
@@ -288,4 +298,13 @@ def test_each_kind_writes_its_own_curvature_pull_the_extended_reach_alone(name):
                 pulled += got > 1e-3
             else:
                 assert got == 0.0
-    assert pulled >= 5
+            if row.angular:
+                assert got_drift == 0.0
+                continue
+            joint = ee_joint if isinstance(lim, ReachLimits) else kin_o.capsule_joint[side]
+            local = kin_o.data.oMi[joint].actInv(row.point)  # the row's point in its link's frame
+            moved = {t: k.data.oMi[joint].act(local) for t, k in coasted.items()}
+            second = (moved[1e-3] - 2.0 * row.point + moved[-1e-3]) / 1e-6
+            assert got_drift == pytest.approx(-row.normal @ second, rel=1e-4, abs=1e-5)
+            drifted += abs(got_drift) > 0.1
+    assert pulled >= 5 and drifted >= 50

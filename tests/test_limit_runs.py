@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from cobotsafety.arm.controller import ArmController
@@ -63,6 +64,38 @@ def test_a_drive_into_a_joint_limit_holds_the_iiwas_limits_at_1_khz():
     assert run.safety_over_smoothness_steps == 0
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.ratios.max_joint_velocity_ratio > 0.5  # the drive does reach the limit at speed
+
+
+def test_a_drive_along_the_wall_into_joint_6s_limit_holds_the_pandas_limits():
+    """The panda's hand dragged so that joint 2 leans back: link 6 meets the demo cell's wall
+    while joint 6 sits at its lower limit, and slides along it with joints 4 and 5 near their
+    speed limits. Turning, the link carries the capsule's end toward the wall at 2.7 m/s^2 with
+    no joint acceleration at all; before the safety bound counted that drift, 4 steps gave up
+    smoothness (joint 2 at 15 times its acceleration limit)."""
+    c0 = ArmController("panda")
+    model = c0.model
+    (iq, iv), = [pair for pair, name in zip(model.limited, model.limited_names) if name == "panda_joint2"]
+    c = limit_runs._start_near(lambda: ArmController("panda"), model, iq, False, 0.001)
+    run = _measure("joint-panda_joint2-lower", c, limit_runs.toward_joint_limit(c, 0.001, iq, iv, False), 0.001)
+    assert run.safety_over_smoothness_steps == 0
+    assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
+    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
+
+
+@pytest.mark.parametrize("robot", ["panda", "iiwa"])
+def test_a_drive_at_the_box_zone_holds_the_limits_as_its_capsule_tilts_along_a_face(robot):
+    """The hand driven at the demo cell's box: the last link slides along a face nearly
+    parallel to it, and as it tilts the capsule's closest point jumps from the end held at the
+    buffer to the other end, arriving at 0.1 m/s. With a row at each end the arriving end has
+    braked by its own row; with the closest point's row alone 3 (panda) and 2 (iiwa) steps gave
+    up smoothness (15 and 34 times the acceleration and jerk limits)."""
+    c = ArmController(robot)
+    box = next(z for z in c.zones if type(z).__name__ == "BoxZone")
+    to_box = np.asarray(box.center, dtype=float) - c.state.p_world_ee
+    run = _measure("zone", c, limit_runs.constant(0.4 * to_box / np.linalg.norm(to_box), 3.0, 0.001), 0.001)
+    assert run.safety_over_smoothness_steps == 0
+    assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
+    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
 
 
 def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys, tmp_path):

@@ -113,6 +113,48 @@ def frame_jacobian(p, joint: int, oR, op, axes, idx_v, support, J):  # pragma: n
 
 
 @numba.njit(cache=True)
+def drift_along(u, J, qdot):  # pragma: no cover - compiled
+    """``u . (dJ/dt qdot)`` [m/s^2]: how fast the point of the frame Jacobian ``J`` (6, nv;
+    ``frame_jacobian``'s, columns in the chain's order, a parent before its child) accelerates
+    along ``u`` when the arm moves at ``qdot`` with no joint acceleration (the centripetal and
+    Coriolis part of its acceleration). Column ``i``'s translation ``j_i = z_i x (p - o_i)``
+    changes at ``(w_i x z_i) x (p - o_i) + z_i x (v_p - v_{o_i})`` (``w_i`` the angular velocity
+    of the joints before ``i``), which by Jacobi's identity sums to::
+
+        dJ/dt qdot = sum_i qdot_i (w_i x j_i + z_i x sum_{k >= i} qdot_k j_k)
+
+    (``tests/test_arm_kinematics.py`` compares it with pinocchio's classical acceleration)."""
+    wx, wy, wz = 0.0, 0.0, 0.0
+    tx, ty, tz = 0.0, 0.0, 0.0
+    for k in range(J.shape[1]):
+        tx += J[0, k] * qdot[k]
+        ty += J[1, k] * qdot[k]
+        tz += J[2, k] * qdot[k]
+    ax, ay, az = 0.0, 0.0, 0.0
+    for i in range(J.shape[1]):
+        s = qdot[i]
+        if s == 0.0:
+            continue
+        jx, jy, jz = J[0, i], J[1, i], J[2, i]
+        zx, zy, zz = J[3, i], J[4, i], J[5, i]
+        ax += s * ((wy * jz - wz * jy) + (zy * tz - zz * ty))
+        ay += s * ((wz * jx - wx * jz) + (zz * tx - zx * tz))
+        az += s * ((wx * jy - wy * jx) + (zx * ty - zy * tx))
+        tx, ty, tz = tx - s * jx, ty - s * jy, tz - s * jz
+        wx, wy, wz = wx + s * zx, wy + s * zy, wz + s * zz
+    return u[0] * ax + u[1] * ay + u[2] * az
+
+
+@numba.njit(cache=True)
+def point_drift(u, p, joint: int, oR, op, axes, idx_v, support, qdot, scratch):  # pragma: no cover - compiled
+    """``drift_along`` for the point ``p`` fixed to ``joint`` (``scratch`` (6, nv) is written):
+    how fast a limitation's row through that point is approached, along ``-u`` for ``u`` its
+    direction away, when the arm moves on at ``qdot`` without accelerating."""
+    frame_jacobian(p, joint, oR, op, axes, idx_v, support, scratch)
+    return drift_along(u, scratch, qdot)
+
+
+@numba.njit(cache=True)
 def integrate(q, v, jtype, idx_q, idx_v, out):  # pragma: no cover - compiled
     """``pin.integrate(model, q, v)`` into ``out`` (RUBZ: rotate (cos, sin), first-order renormalise)."""
     for j in range(1, jtype.shape[0]):

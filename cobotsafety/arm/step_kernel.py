@@ -283,7 +283,7 @@ def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op
 
 
 @numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
+def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
                       dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
                       width_m, width_rad, speed_cap, retreat_cap, ssm, ssm_params, plan, keep_plan, safety,
                       keep_safety, recovering, ramp):  # pragma: no cover - compiled
@@ -314,8 +314,11 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
     15066's speed for that separation. A retreat never asks for more than the speed cap, from a
     person walking at the arm no more than ``retreat_cap``. A
     limitation whose curvature pulls the sliding arm toward it (``pull`` [m/s^2] > 0 at the
-    arm's velocity now, the kind's own: the extended reach) adds that pull to the approach's
-    acceleration and takes it from the deceleration the brake has along the row."""
+    arm's velocity now: the extended reach) adds that pull to the approach's acceleration and
+    takes it from the deceleration the brake has along the row. The row's point's own drift
+    (``drift``: a turning link carries its points on a curve) is the curvature of the motion the
+    plan leaves ``1 - brake_share`` of the limits for; the safety bound, at the full limits,
+    counts it with the pull."""
     nv = A.shape[1]
     worst_factor = 1.0
     stop_decel, stop_jerk = np.inf, np.inf
@@ -340,16 +343,21 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
+        # What draws the arm toward the limitation at its speed now: part of its approach's
+        # acceleration, and held against by the brake while the arm slides on. The plan counts
+        # the limitation's curvature; the safety bound the row's point's drift as well.
+        plan_accel, plan_decel = own_accel, decel
         if pull[i] > 0.0:
-            # The limitation's curvature pulls the arm toward it at its speed now: part of its
-            # approach's acceleration, and held against by the brake while the arm slides on.
-            own_accel += pull[i]
-            decel = max(decel - pull[i], PULL_FLOOR * decel)
+            plan_accel += pull[i]
+            plan_decel = max(decel - pull[i], PULL_FLOOR * decel)
+        toward = max(pull[i] + drift[i], 0.0)
+        own_accel += toward
+        decel = max(decel - toward, PULL_FLOOR * decel)
         keep_plan[i], keep_safety[i], recovering[i], ramp[i] = False, False, False, 0.0
         plan[i], safety[i] = -np.inf, -np.inf
         if decel <= 0.0 or jerk_n <= 0.0:
             continue  # a row the joints cannot move: no half-space on the command
-        plan_decel, plan_jerk = decel, jerk_n
+        plan_jerk = jerk_n
         if rate[i] == 0.0 and own_speed > 0.0:
             plan_decel = min(plan_decel, own_speed * stop_decel)
             plan_jerk = min(plan_jerk, own_speed * stop_jerk)
@@ -372,10 +380,11 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, count, q0, qdot_
                 recovering[i] = True
                 ramp[i] = -braked
         else:
-            # (with a curvature's pull, the command's rate next step is ``a . qdot`` less it:
+            # (with a pull, the command's rate next step is ``a . qdot`` less it:
             # the braking model starts from the rate the command gives and the pull on top)
-            speed_now = own_speed - pull[i] * dt_s + human_closing
-            allowed, _ = safe_speed(gap, speed_now, own_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
+            speed_plan = own_speed - max(pull[i], 0.0) * dt_s + human_closing
+            speed_now = own_speed - toward * dt_s + human_closing
+            allowed, _ = safe_speed(gap, speed_plan, plan_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
             plan_bound = human_closing - allowed
             if allowed == np.inf:
                 safety_bound = -np.inf  # viable at full speed with less: with the full limits too
@@ -524,9 +533,11 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     n_before = before_start[n_lim]
     dist, A, rate = np.empty(max_lim_rows), np.empty((max_lim_rows, nv)), np.empty(max_lim_rows)
     angular, tag = np.empty(max_lim_rows, dtype=np.bool_), np.empty((max_lim_rows, 3), dtype=np.int64)
-    pull = np.zeros(max_lim_rows)  # the limitations' curvature pulls [m/s^2] (``limitations/rows.py``)
+    # how fast the limitation's curvature and the row's point's own motion draw the arm toward
+    # each row [m/s^2] (``limitations/rows.py``)
+    pull, drift = np.zeros(max_lim_rows), np.zeros(max_lim_rows)
     before = np.empty(n_before)
-    out = (dist, A, rate, angular, tag, pull)
+    out = (dist, A, rate, angular, tag, pull, drift)
     # A person walking at the arm is watched from farther: their speed times the time the arm
     # needs to stand still from its motion now (every joint braked together, ramps included).
     walk_m = 0.0
@@ -614,7 +625,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     # with the full limits a safety bound could ask for 1e-4 more than the box gives, and on an
     # AMD EPYC's rounding an iiwa release at its extended reach gave up smoothness for that
     # (2 steps, jerk 1.02 times the limit: 1.4e-6 rad/s past the box).
-    brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, m, q0, qdot_prev, qddot_prev,
+    brake_factor = limitation_bounds(dist, A, rate, angular, separation, pull, drift, m, q0, qdot_prev, qddot_prev,
                                      ee_speed_prev, dt_s, MOTION_MARGIN * acc, MOTION_MARGIN * jerk, vel,
                                      MOTION_MARGIN * ee_acc, MOTION_MARGIN * ee_jerk, brake_share, buffer_m,
                                      buffer_rad, recovery_gain, width_m, width_rad, speed_cap, flee_cap,

@@ -31,6 +31,10 @@ class Row(NamedTuple):
     rate: float
     angular: bool
     tag: tuple[int, int, int]
+    point: np.ndarray | None = None
+    """A metric row's point [m] (fixed to its capsule's link, or the hand) ..."""
+    normal: np.ndarray | None = None
+    """... and the direction in which moving it increases ``d`` (``a = normal . J_point``)."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +84,7 @@ def reach_rows(lim: ReachLimits, con: int, kin: Kinematics, human: Human, activa
     for side, (d, a) in enumerate(((r - lim.inner_m, radial), (lim.outer_m - r, -radial))):
         measured.append(d)
         if d < activation_m:
-            rows.append(Row(d, a, 0.0, False, (con, side, 0)))
+            rows.append(Row(d, a, 0.0, False, (con, side, 0), kin.p_ee, (1.0 - 2.0 * side) * unit(offset, UP)))
     return rows, measured
 
 
@@ -91,7 +95,7 @@ def table_rows(lim: TablePlane, con: int, kin: Kinematics, human: Human, activat
             d = p[2] - kin.radius[c] - lim.height_m
             measured.append(d)
             if d < activation_m:
-                rows.append(Row(d, UP @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, end)))
+                rows.append(Row(d, UP @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, end), p, UP))
     return rows, measured
 
 
@@ -104,7 +108,7 @@ def halfspace_rows(lim: HalfSpaceZone, con: int, kin: Kinematics, human: Human, 
             d = -((p - np.asarray(lim.point, dtype=float)) @ n) - kin.radius[c]
             measured.append(d)
             if d < activation_m:
-                rows.append(Row(d, -n @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, end)))
+                rows.append(Row(d, -n @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, end), p, -n))
     return rows, measured
 
 
@@ -122,7 +126,7 @@ def capsule_zone_rows(lim, con: int, kin: Kinematics, human: Human, activation_m
         measured.append(d)
         if d < activation_m:
             u = unit(pa - pb, UP)
-            rows.append(Row(d, u @ kin.capsule_jacobian(c, pa), 0.0, False, (con, c, 0)))
+            rows.append(Row(d, u @ kin.capsule_jacobian(c, pa), 0.0, False, (con, c, 0), pa, u))
     return rows, measured
 
 
@@ -139,13 +143,33 @@ def box_clearance(lim: BoxZone, kin: Kinematics, c: int, exact_below_m: float):
     return d - kin.radius[c], p, u
 
 
+def point_box(lim: BoxZone, p: np.ndarray) -> tuple[float, np.ndarray]:
+    """The box's signed distance at the point ``p`` [m] and the unit direction that increases it
+    (outside: from the box's nearest point; inside: the nearest face's normal)."""
+    offset = p - np.asarray(lim.center, dtype=float)
+    q = np.abs(offset) - np.asarray(lim.half_size, dtype=float)
+    sign = np.where(offset >= 0.0, 1.0, -1.0)
+    outside = np.maximum(q, 0.0)
+    if np.linalg.norm(outside) > 0.0:
+        return float(np.linalg.norm(outside)), sign * outside / np.linalg.norm(outside)
+    k = int(np.argmax(q))
+    return float(q[k]), sign * np.eye(3)[k]
+
+
 def box_rows(lim: BoxZone, con: int, kin: Kinematics, human: Human, activation_m: float):
+    """Per capsule: the closest point's row, then each end's (unless it is the closest point)."""
     rows, measured = [], []
     for c in _capsules(kin, lim.skip_capsules):
         d, p, u = box_clearance(lim, kin, c, activation_m)
         measured.append(d)
         if p is not None and d < activation_m:
-            rows.append(Row(d, u @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, 0)))
+            rows.append(Row(d, u @ kin.capsule_jacobian(c, p), 0.0, False, (con, c, 0), p, u))
+        for end, e in enumerate((kin.p0[c], kin.p1[c])):
+            d_end, u_end = point_box(lim, e)
+            d_end -= kin.radius[c]
+            measured.append(d_end)
+            if d_end < activation_m and not (p is not None and np.allclose(e, p, rtol=0, atol=1e-9)):
+                rows.append(Row(d_end, u_end @ kin.capsule_jacobian(c, e), 0.0, False, (con, c, 1 + end), e, u_end))
     return rows, measured
 
 
@@ -165,7 +189,7 @@ def human_rows(lim: HumanLimitation, con: int, kin: Kinematics, human: Human, ac
             axis = human.p1[h] - human.p0[h]
             t = float(np.clip((pb - human.p0[h]) @ axis / (axis @ axis), 0.0, 1.0)) if axis @ axis > 0 else 0.0
             v_h = human.v0[h] + t * (human.v1[h] - human.v0[h])
-            rows.append(Row(d - lim.critical_m, u @ kin.capsule_jacobian(c, pa), -(u @ v_h), False, (con, c, h)))
+            rows.append(Row(d - lim.critical_m, u @ kin.capsule_jacobian(c, pa), -(u @ v_h), False, (con, c, h), pa, u))
     return rows, measured
 
 
@@ -188,12 +212,21 @@ def distances(lim, kin: Kinematics, human: Human) -> np.ndarray:
     """What the safety net re-checks: every distance of the limitation, the box's exact only
     where the capsule touches its bounding sphere."""
     if isinstance(lim, BoxZone):
-        return np.array([box_clearance(lim, kin, c, 0.0)[0] for c in _capsules(kin, lim.skip_capsules)])
+        return box_distances(lim, kin, 0.0)
     return np.array(ROWS[type(lim)](lim, 0, kin, human, -np.inf)[1], dtype=float)
 
 
 def exact_distances(lim, kin: Kinematics, human: Human) -> np.ndarray:
     """Every distance of the limitation, exact (the box's too): the invariant's measure."""
     if isinstance(lim, BoxZone):
-        return np.array([box_clearance(lim, kin, c, np.inf)[0] for c in _capsules(kin, lim.skip_capsules)])
+        return box_distances(lim, kin, np.inf)
     return distances(lim, kin, human)
+
+
+def box_distances(lim: BoxZone, kin: Kinematics, exact_below_m: float) -> np.ndarray:
+    """Per capsule: its clearance (``box_clearance``), then its ends' (always exact)."""
+    out = []
+    for c in _capsules(kin, lim.skip_capsules):
+        out.append(box_clearance(lim, kin, c, exact_below_m)[0])
+        out += [point_box(lim, e)[0] - kin.radius[c] for e in (kin.p0[c], kin.p1[c])]
+    return np.array(out)

@@ -3,7 +3,12 @@
 Rows (metres): the signed clearance between each robot capsule (from ``skip_capsules`` on) and
 the box — the segment-box distance minus the capsule's radius, negative inside — and its
 gradient ``u . J_p`` at the segment's closest point ``p``, ``u`` the direction in which moving
-that point increases the clearance.
+that point increases the clearance; and the same at each end of the segment (the point-box
+distance). A capsule lying along a face has every point at one distance, and its closest point
+jumps from one end to the other as it tilts: the end arriving has been braked by its own row,
+where the closest point's row alone met it at full speed. An end's row is left out while it is
+the closest point (the same row twice). ``before``: three distances per capsule (the closest
+point's, then the ends').
 
 Segment-box distance, exactly: along the segment the squared outside distance is a convex
 piecewise quadratic of the segment parameter, with pieces split where a coordinate crosses a
@@ -22,7 +27,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.kinematics import point_jacobian_row
+from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
 from cobotsafety.geometry.capsule import capsule_pair
 
 KIND = 5
@@ -56,7 +61,7 @@ def row_name(zone: BoxZone, robot, a: int, b: int) -> str:
 
 @numba.njit(cache=True)
 def count(real, skip, n_caps, n_limited, n_human):  # pragma: no cover - compiled
-    return max(n_caps - skip, 0)
+    return 3 * max(n_caps - skip, 0)
 
 
 @numba.njit(cache=True)
@@ -178,6 +183,13 @@ def segment_box(a, b, c, h, out_p, out_u):  # pragma: no cover - compiled
     return d
 
 
+@numba.njit(cache=True, inline="always")
+def _same_point(a, b):  # pragma: no cover - compiled
+    """Whether ``a`` and ``b`` are one point (to 1e-9 m: ``segment_box``'s ``a + t (b - a)``
+    at ``t = 1`` rounds)."""
+    return abs(a[0] - b[0]) <= 1e-9 and abs(a[1] - b[1]) <= 1e-9 and abs(a[2] - b[2]) <= 1e-9
+
+
 @numba.njit(cache=True)
 def _clearance(real, skip, kin, c, exact_below, pa, u):  # pragma: no cover - compiled
     """Capsule ``c``'s clearance [m]: exact below ``exact_below``, else the sphere's lower
@@ -192,26 +204,42 @@ def _clearance(real, skip, kin, c, exact_below, pa, u):  # pragma: no cover - co
 
 @numba.njit(cache=True, inline="always")
 def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
-    p0 = kin[5]
+    p0, p1, radius = kin[5], kin[6], kin[7]
     pa, u = np.empty(3), np.empty(3)
     for i in range(p0.shape[0] - skip):
-        out[i], _ = _clearance(real, skip, kin, skip + i, 0.0, pa, u)
+        c = skip + i
+        out[3 * i], _ = _clearance(real, skip, kin, c, 0.0, pa, u)
+        out[3 * i + 1] = _point_box(p0[c], real[0:3], real[3:6], u) - radius[c]
+        out[3 * i + 2] = _point_box(p1[c], real[0:3], real[3:6], u) - radius[c]
 
 
 @numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull = out
+    dist, A, rate, angular, tag, pull, drift = out
     pa, u = np.empty(3), np.empty(3)
+    scratch = np.empty((6, A.shape[1]))
     for i in range(p0.shape[0] - skip):
         c = skip + i
         value, exact = _clearance(real, skip, kin, c, activation_m, pa, u)
-        before[i] = value
-        if not exact or value >= activation_m:
-            continue
-        dist[m] = value
-        point_jacobian_row(u, pa, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-        rate[m], angular[m] = 0.0, False
-        tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
-        m += 1
+        before[3 * i] = value
+        if exact and value < activation_m:
+            dist[m] = value
+            point_jacobian_row(u, pa, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            drift[m] = -point_drift(u, pa, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
+            rate[m], angular[m] = 0.0, False
+            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
+            m += 1
+        for end in range(2):
+            point = p0[c] if end == 0 else p1[c]
+            value = _point_box(point, real[0:3], real[3:6], u) - radius[c]
+            before[3 * i + 1 + end] = value
+            if value >= activation_m or (exact and _same_point(point, pa)):
+                continue
+            dist[m] = value
+            point_jacobian_row(u, point, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            drift[m] = -point_drift(u, point, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
+            rate[m], angular[m] = 0.0, False
+            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 1 + end
+            m += 1
     return m

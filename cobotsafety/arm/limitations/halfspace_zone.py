@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.kinematics import point_jacobian_row
+from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
 
 KIND = 4
 ANGULAR = False
@@ -64,8 +64,9 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull = out
+    dist, A, rate, angular, tag, pull, drift = out
     away = -real[3:6]
+    scratch = np.empty((6, A.shape[1]))
     for i in range(p0.shape[0] - skip):
         c = skip + i
         s0, s1 = _heights(real, p0, p1, c)
@@ -75,7 +76,9 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
             if value >= activation_m:
                 continue
             dist[m] = value
-            point_jacobian_row(away, p0[c] if end == 0 else p1[c], cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            point = p0[c] if end == 0 else p1[c]
+            point_jacobian_row(away, point, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+            drift[m] = -point_drift(away, point, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
             rate[m], angular[m] = 0.0, False
             tag[m, 0], tag[m, 1], tag[m, 2] = con, c, end
             m += 1

@@ -52,7 +52,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     """Both rows of every limited joint (always active: the filter's braking bound decides)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull = out
+    dist, A, rate, angular, tag, pull, drift = out
     L = limited.shape[0]
     for side in range(2):
         for i in range(L):

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from cobotsafety.arm.kinematics import drift_along
 from cobotsafety.small_linalg import matvec
 
 KIND = 1
@@ -73,7 +74,7 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull = out
+    dist, A, rate, angular, tag, pull, drift = out
     r, ox, oy, oz = _radius(real, p_ee)
     if r > 1e-12:
         ux, uy, uz = ox / r, oy / r, oz / r
@@ -89,6 +90,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
         for col in range(A.shape[1]):
             A[m, col] = sign * (ux * J6[0, col] + uy * J6[1, col] + uz * J6[2, col])
         rate[m], angular[m] = 0.0, False
+        drift[m] = -drift_along(np.array([sign * ux, sign * uy, sign * uz]), J6, qdot)
         if side == 1:  # the sphere curves toward the sliding hand on its outside only
             pull[m] = outward_drift(real, p_ee, matvec(J6[:3], qdot))
         tag[m, 0], tag[m, 1], tag[m, 2] = con, side, 0

@@ -5,9 +5,12 @@
 cap_joint (c,), axes (nj, 3), idx_v (nj,), support (nj, nj), lower (nq,), upper (nq,),
 limited (L, 2), qdot (nv,))``, ``qdot`` the joint velocity the arm moves with into the step;
 ``human`` is ``(p0 (h, 3), p1 (h, 3), radius (h,), v0 (h, 3), v1 (h, 3))``; ``out`` is
-``(dist (M,), A (M, nv), rate (M,), angular (M,), tag (M, 3), pull (M,))``, filled from row ``m``:
-``pull`` [m/s^2] (zero unless the kind writes it) is how fast the limitation's curvature pulls
-the arm, moving at ``qdot`` with no acceleration of its own, toward it along the row.
+``(dist (M,), A (M, nv), rate (M,), angular (M,), tag (M, 3), pull (M,), drift (M,))``, filled
+from row ``m``; ``pull`` and ``drift`` [m/s^2] (zero unless the kind writes them) are how fast the
+arm, moving at ``qdot`` with no acceleration of its own, approaches the limitation along the row:
+``pull`` by the limitation's curvature (the extended reach's), ``drift`` by the row's point's
+own motion (``kinematics.point_drift``: a turning link carries its points on a curve, toward a
+limitation as often as away from it).
 """
 
 from __future__ import annotations
