@@ -51,16 +51,20 @@ def test_releases_hold_within_the_limits(robot, pulls):
     assert run.safety_over_smoothness_steps == 0
 
 
+def _drive_to_lower_limit(robot: str, joint: str):
+    """``experiment limits``' run ``joint-<joint>-lower`` at 1 kHz."""
+    model = ArmController(robot).model
+    (iq, iv), = [pair for pair, name in zip(model.limited, model.limited_names) if name == joint]
+    c = limit_runs._start_near(lambda: ArmController(robot), model, iq, False, 0.001)
+    return _measure(f"joint-{joint}-lower", c, limit_runs.toward_joint_limit(c, 0.001, iq, iv, False), 0.001)
+
+
 def test_a_drive_into_a_joint_limit_holds_the_iiwas_limits_at_1_khz():
     """The iiwa's hand dragged so that joint a2 runs into its lower limit, at 1 kHz: met within
     the robot's limits. A joint limit keeps its hard recovery (``RECOVERY`` rows are a standing
     person's): eased before smoothness like a person's, the joint's drift out of its buffer gave
     up smoothness on 49 steps (jerk 7.8 times the limit)."""
-    c0 = ArmController("iiwa")
-    model = c0.model
-    (iq, iv), = [pair for pair, name in zip(model.limited, model.limited_names) if name == "joint_a2"]
-    c = limit_runs._start_near(lambda: ArmController("iiwa"), model, iq, False, 0.001)
-    run = _measure("joint-a2-lower", c, limit_runs.toward_joint_limit(c, 0.001, iq, iv, False), 0.001)
+    run = _drive_to_lower_limit("iiwa", "joint_a2")
     assert run.safety_over_smoothness_steps == 0
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.ratios.max_joint_velocity_ratio > 0.5  # the drive does reach the limit at speed
@@ -72,11 +76,7 @@ def test_a_drive_along_the_wall_into_joint_6s_limit_holds_the_pandas_limits():
     speed limits. Turning, the link carries the capsule's end toward the wall at 2.7 m/s^2 with
     no joint acceleration at all; before the safety bound counted that drift, 4 steps gave up
     smoothness (joint 2 at 15 times its acceleration limit)."""
-    c0 = ArmController("panda")
-    model = c0.model
-    (iq, iv), = [pair for pair, name in zip(model.limited, model.limited_names) if name == "panda_joint2"]
-    c = limit_runs._start_near(lambda: ArmController("panda"), model, iq, False, 0.001)
-    run = _measure("joint-panda_joint2-lower", c, limit_runs.toward_joint_limit(c, 0.001, iq, iv, False), 0.001)
+    run = _drive_to_lower_limit("panda", "panda_joint2")
     assert run.safety_over_smoothness_steps == 0
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
+from cobotsafety.arm.limitations.point_row import write_point_row
 from cobotsafety.geometry.capsule import capsule_pair
 
 KIND = 3
@@ -73,9 +73,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull, drift = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
-    scratch = np.empty((6, A.shape[1]))
+    scratch = np.empty((6, out[1].shape[1]))  # (point_row's Jacobian)
     for i in range(p0.shape[0] - skip):
         c = skip + i
         value = capsule_pair(p0[c], p1[c], radius[c], real[0:3], real[3:6], real[6], pa, pb)
@@ -88,10 +87,5 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
             u[0], u[1], u[2] = gx / norm, gy / norm, gz / norm
         else:
             u[0], u[1], u[2] = 0.0, 0.0, 1.0
-        dist[m] = value
-        point_jacobian_row(u, pa, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-        drift[m] = -point_drift(u, pa, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
-        rate[m], angular[m] = 0.0, False
-        tag[m, 0], tag[m, 1], tag[m, 2] = con, c, 0
-        m += 1
+        m = write_point_row(out, m, value, u, pa, c, 0.0, con, 0, kin, scratch)
     return m

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
+from cobotsafety.arm.limitations.point_row import write_point_row
 from cobotsafety.geometry.capsule import all_pairs, capsule_pair
 
 KIND = 6
@@ -95,9 +95,8 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
     person walking at the arm: see ``arm_step``)."""
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     hp0, hp1, hr, hv0, hv1 = human
-    dist, A, rate, angular, tag, pull, drift = out
     pa, pb, u = np.empty(3), np.empty(3), np.empty(3)
-    scratch = np.empty((6, A.shape[1]))
+    scratch = np.empty((6, out[1].shape[1]))  # (point_row's Jacobian)
     ds, pas, pbs = all_pairs(p0, p1, radius, skip, hp0, hp1, hr)
     n, k = ds.shape
     for i in range(n):
@@ -124,12 +123,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
             closing = 0.0
             for r in range(3):
                 closing += u[r] * (hv0[h, r] + t * (hv1[h, r] - hv0[h, r]))
-            dist[m] = d - real[0]
-            point_jacobian_row(u, pa, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-            drift[m] = -point_drift(u, pa, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
-            rate[m], angular[m] = -closing, False
-            tag[m, 0], tag[m, 1], tag[m, 2] = con, c, h
-            m += 1
+            m = write_point_row(out, m, d - real[0], u, pa, c, -closing, con, h, kin, scratch)
     return m
 
 

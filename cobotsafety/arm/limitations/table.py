@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
+from cobotsafety.arm.limitations.point_row import write_point_row
 
 KIND = 2
 ANGULAR = False
@@ -53,9 +53,8 @@ def distances(real, skip, kin, human, out):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: no cover - compiled
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
-    dist, A, rate, angular, tag, pull, drift = out
     up = np.array([0.0, 0.0, 1.0])
-    scratch = np.empty((6, A.shape[1]))
+    scratch = np.empty((6, out[1].shape[1]))  # (point_row's Jacobian)
     for i in range(p0.shape[0] - skip):
         c = skip + i
         for end in range(2):
@@ -63,10 +62,5 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
             value = point[2] - radius[c] - real[0]
             before[2 * i + end] = value
             if value < activation_m:
-                dist[m] = value
-                point_jacobian_row(up, point, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-                drift[m] = -point_drift(up, point, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
-                rate[m], angular[m] = 0.0, False
-                tag[m, 0], tag[m, 1], tag[m, 2] = con, c, end
-                m += 1
+                m = write_point_row(out, m, value, up, point, c, 0.0, con, end, kin, scratch)
     return m

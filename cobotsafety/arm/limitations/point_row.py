@@ -1,0 +1,27 @@
+"""One metric row through a point of the arm: the row every point-based kind writes.
+
+A limitation seen from a point ``p`` fixed to a robot capsule's link (or the hand): its
+distance ``value`` [m], the row ``u . J_p`` (``u`` the direction in which moving ``p`` increases
+the distance), the distance's own rate (a moving person's), and ``drift``, how fast the point
+approaches along ``-u`` when the arm coasts at its velocity now (``kinematics.point_drift``).
+"""
+
+from __future__ import annotations
+
+import numba
+
+from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
+
+
+@numba.njit(cache=True, inline="always")
+def write_point_row(out, m, value, u, p, c, own_rate, con, b, kin, scratch):  # pragma: no cover - compiled
+    """Row ``m`` of ``out`` (``limitations/rows.py``'s tuple) for the point ``p`` of capsule
+    ``c``, tagged ``(con, c, b)``; ``scratch`` (6, nv) is written. Returns ``m + 1``."""
+    q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
+    dist, A, rate, angular, tag, pull, drift = out
+    dist[m] = value
+    point_jacobian_row(u, p, cap_joint[c], oR, op, axes, idx_v, support, A[m])
+    drift[m] = -point_drift(u, p, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
+    rate[m], angular[m] = own_rate, False
+    tag[m, 0], tag[m, 1], tag[m, 2] = con, c, b
+    return m + 1
