@@ -91,8 +91,10 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
             A[m, col] = sign * (ux * J6[0, col] + uy * J6[1, col] + uz * J6[2, col])
         rate[m], angular[m] = 0.0, False
         drift[m] = -drift_along(np.array([sign * ux, sign * uy, sign * uz]), J6, qdot)
-        if side == 1:  # the sphere curves toward the sliding hand on its outside only
-            pull[m] = outward_drift(real, p_ee, matvec(J6[:3], qdot))
+        # The sphere's curvature: a hand sliding along it at v_t drifts outward (|v_t|^2 / r),
+        # toward the extended reach and away from the inner one. (Its own drift, ``drift``, holds
+        # a hand gliding round the shoulder to the sphere: the two cancel there.)
+        pull[m] = sign * -outward_drift(real, p_ee, matvec(J6[:3], qdot))
         tag[m, 0], tag[m, 1], tag[m, 2] = con, side, 0
         m += 1
     return m

@@ -8,9 +8,9 @@ limited (L, 2), qdot (nv,))``, ``qdot`` the joint velocity the arm moves with in
 ``(dist (M,), A (M, nv), rate (M,), angular (M,), tag (M, 3), pull (M,), drift (M,))``, filled
 from row ``m``; ``pull`` and ``drift`` [m/s^2] (zero unless the kind writes them) are how fast the
 arm, moving at ``qdot`` with no acceleration of its own, approaches the limitation along the row:
-``pull`` by the limitation's curvature (the extended reach's), ``drift`` by the row's point's
-own motion (``kinematics.point_drift``: a turning link carries its points on a curve, toward a
-limitation as often as away from it).
+``pull`` by the limitation's curvature (the reach's: outward, toward the extended sphere and away
+from the inner one), ``drift`` by the row's point's own motion (``kinematics.point_drift``: a
+turning link carries its points on a curve, toward a limitation as often as away from it).
 """
 
 from __future__ import annotations
