@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cobotsafety.arm.kinematics import attached_point, drift_along, integrate, log3, point_drift, point_jacobian_row
+from cobotsafety.arm.kinematics import attached_point, drift_along, frame_jacobian, integrate, log3, point_jacobian_row
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, OUT_I_HEADER, unpack_robot
@@ -72,10 +72,10 @@ def test_point_jacobian_rows_equal_pinocchio(name):
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_a_points_drift_equals_pinocchios_classical_acceleration(name):
-    """``point_drift`` (``u . dJ/dt qdot``, what pulls a limitation's row at a joint velocity
+    """``drift_along`` (``u . dJ/dt qdot``, what pulls a limitation's row at a joint velocity
     with no joint acceleration) against pinocchio's classical acceleration of the same point
     (``forwardKinematics(q, qdot, 0)``: ``a_o + w x v_o + w x (w x r)`` in the joint's frame),
-    for points fixed to every joint and the end-effector's own Jacobian (``drift_along``)."""
+    on the frame Jacobians of points fixed to every joint and on the end-effector's Jacobian."""
     model = robot(name)
     unpacked = unpack_robot(model.robot_i, model.robot_f)
     idx_v, support, axes = unpacked[6], unpacked[7], unpacked[10]
@@ -98,7 +98,8 @@ def test_a_points_drift_equals_pinocchios_classical_acceleration(name):
             v, a = data.v[joint], data.a[joint]
             w = v.angular
             classical = R @ (a.linear + np.cross(w, v.linear) + np.cross(w, np.cross(w, r)) + np.cross(a.angular, r))
-            got = point_drift(u, p, joint, oR, op, axes, idx_v, support, qdot, scratch)
+            frame_jacobian(p, joint, oR, op, axes, idx_v, support, scratch)
+            got = drift_along(u, scratch, qdot)
             assert got == pytest.approx(u @ classical, rel=1e-9, abs=1e-10)
             worst = max(worst, abs(u @ classical))
         u = rng.normal(size=3)

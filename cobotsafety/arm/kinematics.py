@@ -146,15 +146,6 @@ def drift_along(u, J, qdot):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def point_drift(u, p, joint: int, oR, op, axes, idx_v, support, qdot, scratch):  # pragma: no cover - compiled
-    """``drift_along`` for the point ``p`` fixed to ``joint`` (``scratch`` (6, nv) is written):
-    how fast a limitation's row through that point is approached, along ``-u`` for ``u`` its
-    direction away, when the arm moves on at ``qdot`` without accelerating."""
-    frame_jacobian(p, joint, oR, op, axes, idx_v, support, scratch)
-    return drift_along(u, scratch, qdot)
-
-
-@numba.njit(cache=True)
 def integrate(q, v, jtype, idx_q, idx_v, out):  # pragma: no cover - compiled
     """``pin.integrate(model, q, v)`` into ``out`` (RUBZ: rotate (cos, sin), first-order renormalise)."""
     for j in range(1, jtype.shape[0]):

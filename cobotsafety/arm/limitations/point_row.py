@@ -3,14 +3,15 @@
 A limitation seen from a point ``p`` fixed to a robot capsule's link (or the hand): its
 distance ``value`` [m], the row ``u . J_p`` (``u`` the direction in which moving ``p`` increases
 the distance), the distance's own rate (a moving person's), and ``drift``, how fast the point
-approaches along ``-u`` when the arm coasts at its velocity now (``kinematics.point_drift``).
+approaches along ``-u`` when the arm coasts at its velocity now (``kinematics.drift_along``).
+Both from one ``frame_jacobian`` at ``p``.
 """
 
 from __future__ import annotations
 
 import numba
 
-from cobotsafety.arm.kinematics import point_drift, point_jacobian_row
+from cobotsafety.arm.kinematics import drift_along, frame_jacobian
 
 
 @numba.njit(cache=True, inline="always")
@@ -20,8 +21,10 @@ def write_point_row(out, m, value, u, p, c, own_rate, con, b, kin, scratch):  # 
     q, p_ee, J6, oR, op, p0, p1, radius, cap_joint, axes, idx_v, support, lower, upper, limited, qdot = kin
     dist, A, rate, angular, tag, pull, drift = out
     dist[m] = value
-    point_jacobian_row(u, p, cap_joint[c], oR, op, axes, idx_v, support, A[m])
-    drift[m] = -point_drift(u, p, cap_joint[c], oR, op, axes, idx_v, support, qdot, scratch)
+    frame_jacobian(p, cap_joint[c], oR, op, axes, idx_v, support, scratch)
+    for k in range(A.shape[1]):
+        A[m, k] = u[0] * scratch[0, k] + u[1] * scratch[1, k] + u[2] * scratch[2, k]
+    drift[m] = -drift_along(u, scratch, qdot)
     rate[m], angular[m] = own_rate, False
     tag[m, 0], tag[m, 1], tag[m, 2] = con, c, b
     return m + 1

@@ -9,7 +9,7 @@ limited (L, 2), qdot (nv,))``, ``qdot`` the joint velocity the arm moves with in
 from row ``m``; ``pull`` and ``drift`` [m/s^2] (zero unless the kind writes them) are how fast the
 arm, moving at ``qdot`` with no acceleration of its own, approaches the limitation along the row:
 ``pull`` by the limitation's curvature (the reach's: outward, toward the extended sphere and away
-from the inner one), ``drift`` by the row's point's own motion (``kinematics.point_drift``: a
+from the inner one), ``drift`` by the row's point's own motion (``kinematics.drift_along``: a
 turning link carries its points on a curve, toward a limitation as often as away from it).
 """
 
