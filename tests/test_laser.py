@@ -95,6 +95,25 @@ def test_background_removes_static_objects():
         detect_legs(scene, background=np.ones(3))
 
 
+def test_a_person_standing_in_open_space_part_of_the_time_is_not_background():
+    """Beams into open space return only while someone stands in them: a person there in 4 of
+    10 scans is not the background (docs/leg_recall.md, amendment 2), while a wall those beams
+    do not see keeps its range. With the old rule (a surface when returning in over 10 % of the
+    scans) the person's own range became the background and hid them."""
+    legs = [(2.0, 0.12, LEG_RADIUS_M), (2.0, -0.12, LEG_RADIUS_M)]
+    person, empty = render(legs, wall_y=1.5), render([], wall_y=1.5)
+    scans = [person] * 4 + [empty] * 6
+    background = estimate_background(scans)
+    wall = np.isfinite(empty.ranges)
+    np.testing.assert_array_equal(background[wall], empty.ranges[wall])
+    assert np.isinf(background[~wall]).all()
+    assert detect_legs(person, max_range_m=3.0, background=background).shape == (2, 2)
+    old_rule = estimate_background(scans, surface_fraction=0.11)
+    assert detect_legs(person, max_range_m=3.0, background=old_rule).shape == (0, 2)
+    with pytest.raises(ValueError, match="surface_fraction"):
+        estimate_background(scans, surface_fraction=0.0)
+
+
 def test_any_beam_count_and_resolution():
     for beams, fov in ((91, 180.0), (768, 270.0), (1440, 360.0)):
         legs = detect_legs(render([(1.0, 0.2, 0.06), (1.0, -0.05, 0.06)], beams=beams, fov_deg=fov))

@@ -70,7 +70,7 @@ def test_one_walker_velocity_and_position_match_the_truth():
     for t, persons, truth in history:
         assert len(persons) == 1
         person = persons[0]
-        assert person.confirmed == (t >= 2 * SCAN_DT_S - 1e-9)  # third scan
+        assert person.confirmed  # born from a pair of legs: confirmed at birth
         assert person.leg_xy_m.shape == (2, 2)
         assert person.time_since_seen_s == 0.0
         if t >= 1.0:  # after the filter's velocity has settled
@@ -130,6 +130,21 @@ def test_person_who_stops_keeps_the_track_and_velocity_falls_to_zero():
     t, persons, truth = history[-1]
     assert np.linalg.norm(persons[0].v_xy_m_s) < 0.1
     assert np.linalg.norm(persons[0].p_xy_m - truth[0][0]) < 0.05
+
+
+@pytest.mark.parametrize("pairs", [True, False])
+def test_a_pair_is_confirmed_at_birth_and_a_lone_leg_after_three_sightings(pairs):
+    """Confirmation keeps one stray detection from becoming a person; two legs paired in one
+    scan are two detections agreeing on one (docs/leg_recall.md, amendment of 2026-12-04)."""
+    tracker = PersonTracker(PersonTrackerParams(confirm_pairs_at_birth=pairs))
+    pair, lone = np.array([[1.0, 0.1], [1.0, -0.1]]), np.array([[3.0, 2.0]])  # 2.2 m apart
+    confirmed = []
+    for k in range(3):
+        people = tracker.update(k * SCAN_DT_S, np.concatenate([pair, lone]))
+        assert len(people) == 2
+        confirmed.append({len(p.leg_xy_m): p.confirmed for p in people})
+    assert [c[2] for c in confirmed] == ([True, True, True] if pairs else [False, False, True])
+    assert [c[1] for c in confirmed] == [False, False, True]  # a lone leg waits three scans either way
 
 
 def test_unseen_track_coasts_then_dies_and_clutter_is_never_confirmed():

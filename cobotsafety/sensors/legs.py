@@ -338,18 +338,23 @@ def torsos_from_legs(legs_m: np.ndarray, max_leg_separation_m: float = 0.6) -> n
 
 
 def estimate_background(scans: list[LaserScan], percentile: float = 100.0,
-                        open_fraction: float = 0.9) -> np.ndarray:
+                        surface_fraction: float = 0.5) -> np.ndarray:
     """The empty scene from a recording with people in it, shape (n,) [m].
 
     A person occludes a beam only part of the time, so the farthest valid reading of each beam
-    (``percentile`` = 100; lower it for noisy scanners) is the static scene behind them. A beam
-    without a return in at least ``open_fraction`` of the scans looks into open space: inf.
+    (``percentile`` = 100; lower it for noisy scanners) is the static scene behind them. A
+    static surface returns whenever nothing stands in front of it, and a person in front of it
+    returns too: its beam returns in (nearly) every scan. A beam returning in fewer than
+    ``surface_fraction`` of the scans looks into open space and returns only when someone
+    passes: inf (its farthest return would be a person's, docs/leg_recall.md, amendment 2).
     A person who never moves stays part of the background.
     """
+    if not 0.0 < surface_fraction <= 1.0:
+        raise ValueError(f"estimate_background: surface_fraction must be in (0, 1], got {surface_fraction}")
     ranges = np.array([scan.ranges for scan in scans], dtype=float)
     valid = np.array([scan.valid for scan in scans])
     masked = np.where(valid, ranges, np.nan)
     background = np.full(ranges.shape[1], np.inf)
-    seen = valid.mean(axis=0) > 1.0 - open_fraction
-    background[seen] = np.nanpercentile(masked[:, seen], percentile, axis=0)
+    surface = valid.mean(axis=0) >= surface_fraction
+    background[surface] = np.nanpercentile(masked[:, surface], percentile, axis=0)
     return background

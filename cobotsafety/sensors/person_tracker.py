@@ -17,8 +17,10 @@ Per scan (``update(t_s, legs_xy_m)``):
 3. **Deaths**: a track not seen for ``delete_after_s`` (``tentative_delete_after_s`` while
    still tentative) is dropped.
 4. **Births** (``pair_legs``): the legs left over are paired, closest first, when closer than
-   ``leg_pair_distance_m``, a leg left alone being a person too; each starts a tentative track,
-   confirmed after ``confirm_after_hits`` measurements.
+   ``leg_pair_distance_m``, a leg left alone being a person too; a lone leg starts a tentative
+   track, confirmed after ``confirm_after_hits`` measurements; a pair starts a confirmed one
+   (``confirm_pairs_at_birth``: two detections agreeing on one person, where confirmation only
+   guards against one stray detection; docs/leg_recall.md, amendment of 2026-12-04).
 5. **Legs carried through short misses** (``_carry_legs``): each track keeps two leg slots,
    each a leg's position at its last sighting and the track's velocity then. Two legs of a
    track in a scan fill both slots; one leg fills the slot whose predicted leg (last position
@@ -65,6 +67,10 @@ class PersonTrackerParams:
     """Standard deviation of a leg around its torso while walking [m] (hips, stride)."""
     confirm_after_hits: int = 3
     """A tentative track is confirmed after this many measurements (its birth included)."""
+    confirm_pairs_at_birth: bool = True
+    """A track born from two legs paired in one scan is confirmed at once: confirmation keeps
+    one stray detection from becoming a person, and a pair is two detections agreeing on one
+    (a phantom pair only slows the robot). False: every track waits ``confirm_after_hits``."""
     delete_after_s: float = 1.0
     """A confirmed track not seen for this long is dropped [s]."""
     tentative_delete_after_s: float = 0.25
@@ -352,7 +358,8 @@ class PersonTracker:
         return keep
 
     def _birth(self, t_s: float, positions_m: np.ndarray, legs_m: list[np.ndarray]) -> None:
-        """New tentative tracks at ``positions_m`` (m, 2), each with its 1 or 2 legs (., 2) in its slots."""
+        """New tracks at ``positions_m`` (m, 2), each with its 1 or 2 legs (., 2) in its slots:
+        tentative, or confirmed when born from a pair (``confirm_pairs_at_birth``)."""
         m = positions_m.shape[0]
         if m == 0:
             return
@@ -368,7 +375,9 @@ class PersonTracker:
             f.velocity = np.concatenate([f.velocity, new.velocity])
             f.covariance = np.concatenate([f.covariance, new.covariance])
         self._ids = np.concatenate([self._ids, np.arange(self._next_id, self._next_id + m)])
-        self._hits = np.concatenate([self._hits, np.ones(m, dtype=int)])
+        paired = np.array([len(group) == 2 for group in legs_m]) & self.params.confirm_pairs_at_birth
+        hits = np.where(paired, max(1, self.params.confirm_after_hits), 1)
+        self._hits = np.concatenate([self._hits, hits.astype(int)])
         self._last_seen_s = np.concatenate([self._last_seen_s, np.full(m, t_s)])
         self._next_id += m
         self.births += m
