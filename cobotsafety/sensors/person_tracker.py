@@ -376,8 +376,7 @@ class PersonTracker:
             f.covariance = np.concatenate([f.covariance, new.covariance])
         self._ids = np.concatenate([self._ids, np.arange(self._next_id, self._next_id + m)])
         paired = np.array([len(group) == 2 for group in legs_m]) & self.params.confirm_pairs_at_birth
-        hits = np.where(paired, max(1, self.params.confirm_after_hits), 1)
-        self._hits = np.concatenate([self._hits, hits.astype(int)])
+        self._hits = np.concatenate([self._hits, np.where(paired, self.params.confirm_after_hits, 1)])
         self._last_seen_s = np.concatenate([self._last_seen_s, np.full(m, t_s)])
         self._next_id += m
         self.births += m
