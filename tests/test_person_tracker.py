@@ -207,6 +207,8 @@ def test_bad_input_is_refused_with_the_argument_named():
         tracker.update(np.inf, np.zeros((0, 2)))
     with pytest.raises(ValueError, match="confirm_after_hits"):
         PersonTrackerParams(confirm_after_hits=0)
+    with pytest.raises(ValueError, match="confirm_pairs_at_birth"):
+        PersonTrackerParams(confirm_pairs_at_birth="no")  # a string is truthy: refused, not read as True
     with pytest.raises(ValueError, match="tentative_delete_after_s"):
         PersonTrackerParams(delete_after_s=0.1)  # a tentative track would outlive a confirmed one
     for bad in (np.nan, -0.1, np.inf):

@@ -94,6 +94,9 @@ class PersonTrackerParams:
         if self.tentative_delete_after_s > self.delete_after_s:
             raise ValueError(f"PersonTrackerParams.tentative_delete_after_s ({self.tentative_delete_after_s}) must "
                              f"not exceed delete_after_s ({self.delete_after_s})")
+        if not isinstance(self.confirm_pairs_at_birth, (bool, np.bool_)):
+            raise ValueError(f"PersonTrackerParams.confirm_pairs_at_birth must be True or False, "
+                             f"got {self.confirm_pairs_at_birth!r}")
         if int(self.confirm_after_hits) != self.confirm_after_hits or self.confirm_after_hits < 1:
             raise ValueError(f"PersonTrackerParams.confirm_after_hits must be an integer >= 1, "
                              f"got {self.confirm_after_hits}")
