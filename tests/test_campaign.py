@@ -121,8 +121,10 @@ def test_an_escape_that_needed_the_arm_to_move_before_the_person_was_seen_is_not
 
 def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
-    velocity and acceleration limits and keeps the true separation (at most 1 cm below the
-    critical distance between the search's samples, which alone it guarantees)."""
+    velocity and acceleration limits, its hand within the end-effector's speed and acceleration
+    limits (finite differences of the hand's position; 1 % over at most, the search checks them
+    every quarter of a knot interval), and keeps the true separation (at most 1 cm below the critical distance
+    between the search's samples, which alone it guarantees)."""
     from cobotsafety.tools.campaign.escape import KNOTS, _Kinematics
 
     kin = _Kinematics("iiwa")
@@ -136,6 +138,14 @@ def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     q = q_start + np.cumsum(v * 0.001, axis=0)
     worst = min(truth.distance_m(*kin.capsules(qk), tk) for qk, tk in zip(q[::10], fine[::10]))
     assert worst >= critical_m - 0.01
+    hand = []
+    for qk in np.vstack([q_start, q])[::5]:
+        kin.arm.set_configuration(qk)
+        hand.append(kin.state.p_world_ee.copy())
+    hand_v = np.diff(hand, axis=0) / 0.005
+    hand_a = np.diff(hand_v, axis=0) / 0.005
+    assert np.linalg.norm(hand_v, axis=1).max() <= kin.ee_speed * 1.01
+    assert np.linalg.norm(hand_a, axis=1).max() <= kin.ee_acc * 1.01
 
 
 def test_an_escape_needs_acceleration_the_arm_has():
@@ -152,10 +162,31 @@ def test_an_escape_needs_acceleration_the_arm_has():
     t = np.arange(0.0, 3.0, 0.01)
     held = np.tile(q_home, (len(t), 1))
     limited = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
-    kin.a_max = kin.a_max * 1e3
+    kin.a_max, kin.ee_acc = kin.a_max * 1e3, kin.ee_acc * 1e3
     instant = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
     assert instant.exists and not limited.exists
     assert limited.best_min_distance_m < 0.08 <= instant.best_min_distance_m
+
+
+def test_an_escape_keeps_the_hand_within_its_own_limits():
+    """A person closing 0.7 m on the resting iiwa's hand at 1.5 m/s, stopping 0.1 m from its
+    axis: the joints alone could take the hand clear (the search finds it with the hand's speed
+    and acceleration limits lifted), but the iiwa's hand may not exceed 1 m/s and 2 m/s^2
+    (``MotionLimits``, which the controllers keep): the escape the search allows is one within
+    every limit a controller must keep."""
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    assert (kin.ee_speed, kin.ee_acc) == (1.0, 2.0)
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, 0.8, 0.1, 1.5))
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    limited = escape_exists("iiwa", held, t, 0.67, truth, 0.0, critical_m=0.1, kinematics=kin)
+    kin.ee_speed, kin.ee_acc = 1e3, 1e3
+    free = escape_exists("iiwa", held, t, 0.67, truth, 0.0, critical_m=0.1, kinematics=kin)
+    assert free.exists and not limited.exists
+    assert limited.best_min_distance_m < 0.095
 
 
 @pytest.fixture(scope="module")

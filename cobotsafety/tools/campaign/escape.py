@@ -6,15 +6,19 @@ scipy (SLSQP) for a joint trajectory over ``[t0, t_closest + LOOKAHEAD_S]`` that
 separation above the critical distance, knowing the human's whole future (the ground truth).
 The trajectory is one a real arm could follow: the joint velocity is continuous, starts at the
 logged one, and is linear between ``KNOTS`` evenly spaced knots (the decision variables), each
-knot within the robot's velocity limits and within its acceleration limits of the previous one
-(``MotionLimits``; jerk and the end-effector's own limits are not modelled), positions within
-its joint limits. It maximises the smallest separation ``s`` at ``SAMPLES`` times (epigraph
-form: maximise ``s`` subject to ``d_j(x) >= s``). The constraints' gradients are exact:
-``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to the
-robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat function up
-to sample ``j``. An escape existed when the optimum (or a candidate tried first: brake to a
-stop, reverse the logged motion, or the steepest retreat at full or half speed, each reached
-at the acceleration limits; SLSQP starts from the best) reaches the critical distance. The
+knot within the robot's velocity limits and within its acceleration limits of the previous one,
+positions within its joint limits, and the end-effector within its own speed and acceleration
+limits at every quarter of a knot interval (``HAND_POINTS``; the acceleration over each): the
+same ``MotionLimits`` the controllers must keep, so an escape is one they were allowed to take
+(jerk is not modelled). It maximises the smallest separation ``s`` at ``SAMPLES`` times
+(epigraph form: maximise ``s`` subject to ``d_j(x) >= s``). The separation's gradients are
+exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
+the robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat
+function up to sample ``j``; the hand's rows differentiate its velocity ``J_ee(q) v`` in ``v``
+exactly and in ``q`` by forward differences of ``J_ee``. An escape existed when the optimum (or
+a candidate tried first: brake to a stop, reverse the logged motion, or the steepest retreat at
+full or half speed, each reached at the acceleration limits or at a half or a quarter of them;
+SLSQP starts from the best) reaches the critical distance. The
 search is local: an escape found is certain (``Escape.witness_rad_s``, its knot velocities),
 "none" is the best SLSQP found, so ``breaches_with_escape`` is a lower bound. The window is a
 stated choice: the controller could have started earlier, so "no escape in the window" does not
@@ -25,6 +29,7 @@ escape needed the arm to move before anyone was seen (perception's share, not th
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +42,9 @@ LOOKBACK_S = 1.0
 LOOKAHEAD_S = 0.5
 KNOTS = 6
 SAMPLES = 16
+#: The end-effector's speed is checked at every quarter of a knot interval, its acceleration
+#: over each quarter (from the logged start).
+HAND_POINTS = 4 * KNOTS
 
 
 @dataclass(frozen=True)
@@ -65,11 +73,17 @@ class _Kinematics:
         self.v_max = np.asarray(limits.velocity_rad_s, dtype=float)
         self.a_max = np.asarray(limits.acceleration_rad_s2, dtype=float)
         self.lower, self.upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
+        self.ee_speed, self.ee_acc = float(limits.ee_speed_m_s), float(limits.ee_acceleration_m_s2)
 
     def capsules(self, q: np.ndarray):
         self.arm.set_configuration(q)
         s = self.state
         return s.capsule_p0[self.skip:], s.capsule_p1[self.skip:], s.capsule_radius[self.skip:]
+
+    def hand_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
+        self.arm.set_configuration(q)
+        return self.state.J_ee.copy()
 
     def separation(self, q: np.ndarray, hp0, hp1, hr) -> tuple[float, np.ndarray]:
         """(separation [m], its gradient d/dq (n,)) against human capsules (k, 3), (k, 3), (k,)."""
@@ -92,14 +106,24 @@ def _hat_integral(t: np.ndarray, centre: float, half_width: float) -> np.ndarray
     return cumulative(np.asarray(t, dtype=float)) - cumulative(0.0)
 
 
-def _weights(window_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(w0 (SAMPLES,), W (SAMPLES, KNOTS))`` [s]: the position change at each sample time per
-    unit of the starting velocity and of each knot's velocity (velocity linear between knots)."""
-    times = np.linspace(window_s / SAMPLES, window_s, SAMPLES)
+def _weights(window_s: float, points: int = SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """``(w0 (points,), W (points, KNOTS))`` [s]: the position change at ``points`` evenly spaced
+    times (the last at the window's end) per unit of the starting velocity and of each knot's
+    velocity (velocity linear between knots)."""
+    times = np.linspace(window_s / points, window_s, points)
     h = window_s / KNOTS
     w0 = _hat_integral(times, 0.0, h)
     W = np.stack([_hat_integral(times, (k + 1) * h, h) for k in range(KNOTS)], axis=1)
     return w0, W
+
+
+def _velocity_weights(window_s: float, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(u0 (points,), U (points, KNOTS))``: the joint velocity at the times of ``_weights``
+    per unit of the starting velocity and of each knot's (the hat functions' values)."""
+    times = np.linspace(window_s / points, window_s, points)
+    h = window_s / KNOTS
+    hat = lambda centre: np.clip(1.0 - np.abs(times - centre) / h, 0.0, None)  # noqa: E731
+    return hat(0.0), np.stack([hat((k + 1) * h) for k in range(KNOTS)], axis=1)
 
 
 def _reach(v_start: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
@@ -112,7 +136,7 @@ def _reach(v_start: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndar
 
 
 def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s: float, truth: TruthHuman,
-                  truth_offset_s: float, critical_m: float, capsules: str = "paper", maxiter: int = 40,
+                  truth_offset_s: float, critical_m: float, capsules: str = "paper", maxiter: int = 200,
                   kinematics: _Kinematics | None = None, earliest_s: float | None = None) -> Escape:
     """Search the window around ``t_closest_s`` (run clock) for a motion keeping the true
     separation >= ``critical_m``; ``q_log`` (n, nq) at ``t_log`` (n,) is the run's trajectory;
@@ -137,6 +161,48 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
 
     def positions(x: np.ndarray) -> np.ndarray:
         return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
+
+    # The hand at every quarter of a knot interval: its velocity J_ee(q) v, its speed and its
+    # acceleration over each quarter within the robot's end-effector limits (as margins
+    # 1 - (value / limit)^2).
+    hw0, HW = _weights(window, HAND_POINTS)
+    hu0, HU = _velocity_weights(window, HAND_POINTS)
+    hand_start = q0 + np.outer(hw0, v0)
+    hand_velocity_start = np.outer(hu0, v0)
+    u_start = kin.hand_jacobian(q0) @ v0
+    quarter = window / HAND_POINTS
+    hand_cache: dict = {}
+
+    def hand(x: np.ndarray):
+        """(velocities (HAND_POINTS, 3), their derivatives (HAND_POINTS, 3, KNOTS n) in J_ee v)."""
+        key = x.tobytes()
+        if key not in hand_cache:
+            hand_cache.clear()
+            X = x[: KNOTS * n].reshape(KNOTS, n)
+            q, v = hand_start + HW @ X, hand_velocity_start + HU @ X
+            jacobians = [kin.hand_jacobian(qk) for qk in q]
+            u = np.array([J @ vk for J, vk in zip(jacobians, v)])
+            # d(J_ee v)/dq by forward differences of J_ee (the velocity's change with the pose).
+            turn = [np.stack([(kin.hand_jacobian(qk + 1e-6 * e) - J) @ vk / 1e-6 for e in np.eye(n)], axis=1)
+                    for qk, vk, J in zip(q, v, jacobians)]
+            du = np.array([np.kron(HU[g][None, :], jacobians[g]) + np.kron(HW[g][None, :], turn[g])
+                           for g in range(HAND_POINTS)])
+            hand_cache[key] = (u, du)
+        return hand_cache[key]
+
+    def hand_margins(x: np.ndarray) -> np.ndarray:
+        u, _ = hand(x)
+        a = np.diff(np.vstack([u_start, u]), axis=0) / quarter
+        return np.concatenate([1.0 - (u ** 2).sum(axis=1) / kin.ee_speed ** 2,
+                               1.0 - (a ** 2).sum(axis=1) / kin.ee_acc ** 2])
+
+    def hand_jacobian(x: np.ndarray) -> np.ndarray:
+        u, du = hand(x)
+        a = np.diff(np.vstack([u_start, u]), axis=0) / quarter
+        da = np.diff(np.concatenate([np.zeros((1,) + du.shape[1:]), du]), axis=0) / quarter
+        rows = np.vstack([-2.0 * np.einsum("gi,gik->gk", u, du) / kin.ee_speed ** 2,
+                          -2.0 * np.einsum("gi,gik->gk", a, da) / kin.ee_acc ** 2])
+        return np.hstack([rows, np.zeros((2 * HAND_POINTS, 1))])
 
     cache: dict = {}
 
@@ -163,10 +229,12 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         q = positions(x)
         return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
                     and np.all(accelerations(x) >= -1e-9 * steps.max())
-                    and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12))
+                    and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
+                    and np.all(hand_margins(x) >= -1e-4))
 
-    # Candidates first, each reached at the acceleration limits: brake to a stop, the logged
-    # motion reversed (a retreat along it), the steepest retreat at full or half speed.
+    # Candidates first, each reached at the acceleration limits or a half or a quarter of them
+    # (the hand's own limits may allow no more): brake to a stop, the logged motion reversed (a
+    # retreat along it), the steepest retreat at full or half speed.
     i1 = int(np.clip(np.searchsorted(t_log, min(t1, float(t_log[-1]))), 0, len(t_log) - 1))
     logged = (np.asarray(q_log[i1]) - q0) / window
     braking = _reach(v0, np.zeros(n), step).ravel()
@@ -174,8 +242,9 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     worst = int(np.argmin(d_brake))
     steepest = kin.v_max * np.sign(grads_brake[worst])  # every joint growing the worst separation
     best, start = -np.inf, None
-    for target in (np.zeros(n), np.clip(-logged, -kin.v_max, kin.v_max), steepest, 0.5 * steepest):
-        x = _reach(v0, target, step).ravel()
+    for target, share in itertools.product((np.zeros(n), np.clip(-logged, -kin.v_max, kin.v_max), steepest,
+                                            0.5 * steepest), (1.0, 0.5, 0.25)):
+        x = _reach(v0, target, share * step).ravel()
         if feasible(x):
             value = float(separations(x)[0].min())
             if value > best:
@@ -198,7 +267,8 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
                "jac": lambda x: np.hstack([dq_dx, np.zeros((SAMPLES * n, 1))])},
               {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
                "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
-              {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian}]
+              {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian},
+              {"type": "ineq", "fun": hand_margins, "jac": hand_jacobian}]
     x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
     bounds = [(-v, v) for v in v_bound] + [(None, None)]
     result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
