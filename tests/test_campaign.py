@@ -123,8 +123,8 @@ def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
     velocity and acceleration limits, its hand within the end-effector's speed and acceleration
     limits (finite differences of the hand's position; 1 % over at most, the search checks them
-    every quarter of a knot interval), and keeps the true separation (at most 1 cm below the critical distance
-    between the search's samples, which alone it guarantees)."""
+    every quarter of a knot interval), and keeps the true separation (at most 1 cm below the
+    critical distance between the search's samples, which alone it guarantees)."""
     from cobotsafety.tools.campaign.escape import KNOTS, _Kinematics
 
     kin = _Kinematics("iiwa")

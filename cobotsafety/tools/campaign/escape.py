@@ -230,7 +230,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
                     and np.all(accelerations(x) >= -1e-9 * steps.max())
                     and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
-                    and np.all(hand_margins(x) >= -1e-4))
+                    and np.all(hand_margins(x) >= -1e-4))  # SLSQP's tolerance: 5e-5 of the hand's limits
 
     # Candidates first, each reached at the acceleration limits or a half or a quarter of them
     # (the hand's own limits may allow no more): brake to a stop, the logged motion reversed (a
