@@ -79,6 +79,42 @@ def test_the_separation_gradient_matches_finite_differences():
     np.testing.assert_allclose(grad, numeric, atol=1e-5)
 
 
+
+def test_the_hand_rows_match_the_hands_path_and_their_gradient_finite_differences():
+    """The escape search's hand rows (``_HandRows``) at random knot velocities: the speed margins
+    are those of the hand's velocity from finite differences of its position along the knots'
+    path (integrated at 0.1 ms, pinocchio's forward kinematics), and the Jacobian of all the
+    margins is their central finite difference."""
+    from cobotsafety.tools.campaign.escape import HAND_POINTS, KNOTS, _HandRows, _Kinematics
+
+    kin = _Kinematics("iiwa")
+    rng = np.random.default_rng(8)
+    n, window = kin.state.nv, 0.9
+    q0 = kin.state.q.copy() + rng.normal(scale=0.2, size=n)
+    v0 = rng.uniform(-0.3, 0.3, n)
+    x = np.concatenate([rng.uniform(-0.5, 0.5, KNOTS * n), [0.0]])
+    rows = _HandRows(kin, q0, v0, window)
+    margins = rows.margins(x)
+    knots_t = np.arange(KNOTS + 1) * window / KNOTS
+    knots_v = np.vstack([v0, x[:-1].reshape(KNOTS, n)])
+    fine = np.arange(0.0, window + 1e-9, 1e-4)
+    v = np.stack([np.interp(fine, knots_t, knots_v[:, j]) for j in range(n)], axis=1)
+    q = q0 + np.vstack([np.zeros(n), np.cumsum(0.5 * (v[1:] + v[:-1]) * 1e-4, axis=0)])
+    checked = np.round(np.linspace(window / HAND_POINTS, window, HAND_POINTS) / 1e-4).astype(int)
+    speeds = []
+    for k in checked:
+        ends = []
+        for kk in (k - 1, k):
+            kin.arm.set_configuration(q[kk])
+            ends.append(kin.state.p_world_ee.copy())
+        speeds.append(np.linalg.norm(ends[1] - ends[0]) / 1e-4)
+    np.testing.assert_allclose(margins[:HAND_POINTS], 1.0 - (np.array(speeds) / kin.ee_speed) ** 2, atol=2e-3)
+    h = 1e-6
+    numeric = np.stack([(rows.margins(x + h * e) - rows.margins(x - h * e)) / (2 * h) for e in np.eye(len(x))],
+                       axis=1)
+    np.testing.assert_allclose(rows.jacobian(x), numeric, rtol=1e-4, atol=1e-4 * np.abs(numeric).max())
+
+
 def test_the_escape_search_finds_a_retreat_the_held_arm_did_not_take():
     from cobotsafety.arm.controller import ArmController
 

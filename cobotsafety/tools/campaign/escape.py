@@ -126,6 +126,56 @@ def _velocity_weights(window_s: float, points: int) -> tuple[np.ndarray, np.ndar
     return hat(0.0), np.stack([hat((k + 1) * h) for k in range(KNOTS)], axis=1)
 
 
+class _HandRows:
+    """The hand's rows of the search over knot velocities ``x`` (KNOTS n, then ``s``), from
+    ``q0``, ``v0`` over ``window_s``: at every quarter of a knot interval its velocity
+    ``J_ee(q) v``, its speed and its acceleration over each quarter within the robot's
+    end-effector limits, as margins ``1 - (value / limit)^2`` (``margins``, >= 0 when kept),
+    and their Jacobian (``jacobian``: exact in ``v``, by forward differences of ``J_ee`` in q)."""
+
+    def __init__(self, kin: _Kinematics, q0: np.ndarray, v0: np.ndarray, window_s: float):
+        self.kin, self.n = kin, len(q0)
+        hw0, self.HW = _weights(window_s, HAND_POINTS)
+        hu0, self.HU = _velocity_weights(window_s, HAND_POINTS)
+        self.q_start = q0 + np.outer(hw0, v0)
+        self.v_start = np.outer(hu0, v0)
+        self.u_start = kin.hand_jacobian(q0) @ v0
+        self.quarter = window_s / HAND_POINTS
+        self._cache: dict = {}
+
+    def velocities(self, x: np.ndarray):
+        """(hand velocities (HAND_POINTS, 3), their derivatives (HAND_POINTS, 3, KNOTS n))."""
+        key = x.tobytes()
+        if key not in self._cache:
+            self._cache.clear()
+            kin, n = self.kin, self.n
+            X = x[: KNOTS * n].reshape(KNOTS, n)
+            q, v = self.q_start + self.HW @ X, self.v_start + self.HU @ X
+            jacobians = [kin.hand_jacobian(qk) for qk in q]
+            u = np.array([J @ vk for J, vk in zip(jacobians, v)])
+            # d(J_ee v)/dq by forward differences of J_ee (the velocity's change with the pose).
+            turn = [np.stack([(kin.hand_jacobian(qk + 1e-6 * e) - J) @ vk / 1e-6 for e in np.eye(n)], axis=1)
+                    for qk, vk, J in zip(q, v, jacobians)]
+            du = np.array([np.kron(self.HU[g][None, :], jacobians[g]) + np.kron(self.HW[g][None, :], turn[g])
+                           for g in range(HAND_POINTS)])
+            self._cache[key] = (u, du)
+        return self._cache[key]
+
+    def margins(self, x: np.ndarray) -> np.ndarray:
+        u, _ = self.velocities(x)
+        a = np.diff(np.vstack([self.u_start, u]), axis=0) / self.quarter
+        return np.concatenate([1.0 - (u ** 2).sum(axis=1) / self.kin.ee_speed ** 2,
+                               1.0 - (a ** 2).sum(axis=1) / self.kin.ee_acc ** 2])
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        u, du = self.velocities(x)
+        a = np.diff(np.vstack([self.u_start, u]), axis=0) / self.quarter
+        da = np.diff(np.concatenate([np.zeros((1,) + du.shape[1:]), du]), axis=0) / self.quarter
+        rows = np.vstack([-2.0 * np.einsum("gi,gik->gk", u, du) / self.kin.ee_speed ** 2,
+                          -2.0 * np.einsum("gi,gik->gk", a, da) / self.kin.ee_acc ** 2])
+        return np.hstack([rows, np.zeros((2 * HAND_POINTS, 1))])
+
+
 def _reach(v_start: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
     """Knot velocities (KNOTS, n) going from ``v_start`` to ``target`` by at most ``step`` per knot."""
     knots, v = [], v_start.copy()
@@ -162,47 +212,8 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     def positions(x: np.ndarray) -> np.ndarray:
         return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
 
-    # The hand at every quarter of a knot interval: its velocity J_ee(q) v, its speed and its
-    # acceleration over each quarter within the robot's end-effector limits (as margins
-    # 1 - (value / limit)^2).
-    hw0, HW = _weights(window, HAND_POINTS)
-    hu0, HU = _velocity_weights(window, HAND_POINTS)
-    hand_start = q0 + np.outer(hw0, v0)
-    hand_velocity_start = np.outer(hu0, v0)
-    u_start = kin.hand_jacobian(q0) @ v0
-    quarter = window / HAND_POINTS
-    hand_cache: dict = {}
-
-    def hand(x: np.ndarray):
-        """(velocities (HAND_POINTS, 3), their derivatives (HAND_POINTS, 3, KNOTS n) in J_ee v)."""
-        key = x.tobytes()
-        if key not in hand_cache:
-            hand_cache.clear()
-            X = x[: KNOTS * n].reshape(KNOTS, n)
-            q, v = hand_start + HW @ X, hand_velocity_start + HU @ X
-            jacobians = [kin.hand_jacobian(qk) for qk in q]
-            u = np.array([J @ vk for J, vk in zip(jacobians, v)])
-            # d(J_ee v)/dq by forward differences of J_ee (the velocity's change with the pose).
-            turn = [np.stack([(kin.hand_jacobian(qk + 1e-6 * e) - J) @ vk / 1e-6 for e in np.eye(n)], axis=1)
-                    for qk, vk, J in zip(q, v, jacobians)]
-            du = np.array([np.kron(HU[g][None, :], jacobians[g]) + np.kron(HW[g][None, :], turn[g])
-                           for g in range(HAND_POINTS)])
-            hand_cache[key] = (u, du)
-        return hand_cache[key]
-
-    def hand_margins(x: np.ndarray) -> np.ndarray:
-        u, _ = hand(x)
-        a = np.diff(np.vstack([u_start, u]), axis=0) / quarter
-        return np.concatenate([1.0 - (u ** 2).sum(axis=1) / kin.ee_speed ** 2,
-                               1.0 - (a ** 2).sum(axis=1) / kin.ee_acc ** 2])
-
-    def hand_jacobian(x: np.ndarray) -> np.ndarray:
-        u, du = hand(x)
-        a = np.diff(np.vstack([u_start, u]), axis=0) / quarter
-        da = np.diff(np.concatenate([np.zeros((1,) + du.shape[1:]), du]), axis=0) / quarter
-        rows = np.vstack([-2.0 * np.einsum("gi,gik->gk", u, du) / kin.ee_speed ** 2,
-                          -2.0 * np.einsum("gi,gik->gk", a, da) / kin.ee_acc ** 2])
-        return np.hstack([rows, np.zeros((2 * HAND_POINTS, 1))])
+    hand = _HandRows(kin, q0, v0, window)
+    hand_margins, hand_jacobian = hand.margins, hand.jacobian
 
     cache: dict = {}
 
