@@ -79,7 +79,6 @@ def test_the_separation_gradient_matches_finite_differences():
     np.testing.assert_allclose(grad, numeric, atol=1e-5)
 
 
-
 def test_the_hand_rows_match_the_hands_path_and_their_gradient_finite_differences():
     """The escape search's hand rows (``_HandRows``) at random knot velocities: the speed margins
     are those of the hand's velocity from finite differences of its position along the knots'

@@ -213,7 +213,6 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
 
     hand = _HandRows(kin, q0, v0, window)
-    hand_margins, hand_jacobian = hand.margins, hand.jacobian
 
     cache: dict = {}
 
@@ -241,7 +240,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
                     and np.all(accelerations(x) >= -1e-9 * steps.max())
                     and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
-                    and np.all(hand_margins(x) >= -1e-4))  # SLSQP's tolerance: 5e-5 of the hand's limits
+                    and np.all(hand.margins(x) >= -1e-4))  # SLSQP's tolerance: 5e-5 of the hand's limits
 
     # Candidates first, each reached at the acceleration limits or a half or a quarter of them
     # (the hand's own limits may allow no more): brake to a stop, the logged motion reversed (a
@@ -279,7 +278,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
               {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
                "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
               {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian},
-              {"type": "ineq", "fun": hand_margins, "jac": hand_jacobian}]
+              {"type": "ineq", "fun": hand.margins, "jac": hand.jacobian}]
     x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
     bounds = [(-v, v) for v in v_bound] + [(None, None)]
     result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
