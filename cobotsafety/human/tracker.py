@@ -9,13 +9,15 @@ fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s
 five fresh IMUs, each end point's own motion relative to the torso (a backward difference of
 the IMU chain over ``ARM_VELOCITY_WINDOW_S``): the one estimate of the human's motion the
 controller uses (a reaching hand is seen coming, not only where it is). Per IMU
-sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated, IMU
-orientations slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules
+sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated (past its
+newest sighting: moved on at the tracked velocity, at most ``StalePolicy.laser_stale_after_s``),
+IMU orientations slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules
 of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
 ``until_s`` hides samples stamped after it (a causal replay passes ``until_s = t_s``).
 
 Absence: a person whose legs are no longer seen (occluded, lost, or gone) keeps the last
-pose with a radius growing with the time since seen (``conservative.py``); only when fresh
+pose (moved on at the tracked velocity until the legs count as lost) with a radius growing
+with the time since seen (``conservative.py``); only when fresh
 scans show no legs and the human, last seen ``age`` seconds ago, could have walked out of the
 clipped range since (``could_have_left``), is nobody in range: no capsules. A lost track never
 makes the human vanish at once.
@@ -144,6 +146,14 @@ class HumanTracker:
             reason = "nobody in range" if laser_alive else "laser silent: human position unknown"
             return HumanCapsules.absent(t_s, reason, stale=not laser_alive)
         xy = self.torso.value_at(t_s, until_s)
+        # Past its newest sighting the torso moves on at the tracked velocity (held there, it
+        # stood still between scans while its velocity said it walked: the filter braked for a
+        # motion the capsules did not make, then met it as a jump at the next scan), no further
+        # than until the legs count as lost; from there the pose is held and grows.
+        held_s = self.torso.age_s(t_s, until_s)  # < 0: between two sightings, interpolated
+        velocity = self.torso_velocity_at(t_s, until_s) if held_s > 0.0 else None
+        if velocity is not None and np.all(np.isfinite(velocity)):
+            xy = xy + velocity * min(held_s, self.policy.laser_stale_after_s)
         if laser_alive and torso_age > self.policy.laser_stale_after_s:
             distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
             if could_have_left(distance, torso_age, self.max_range_m, self.policy):
