@@ -151,8 +151,10 @@ class HumanTracker:
         # motion the capsules did not make, then met it as a jump at the next scan), no further
         # than until the legs count as lost; from there the pose is held and grows.
         held_s = self.torso.age_s(t_s, until_s)  # < 0: between two sightings, interpolated
-        velocity = self.torso_velocity_at(t_s, until_s) if held_s > 0.0 else None
-        if velocity is not None and np.all(np.isfinite(velocity)):
+        velocity = self.torso_velocity_at(t_s, until_s)  # (also the capsules' velocity below)
+        if velocity is not None and not np.all(np.isfinite(velocity)):
+            velocity = None
+        if velocity is not None and held_s > 0.0:
             xy = xy + velocity * min(held_s, self.policy.laser_stale_after_s)
         if laser_alive and torso_age > self.policy.laser_stale_after_s:
             distance = math.hypot(xy[0] - self.scanner.x_m, xy[1] - self.scanner.y_m)
@@ -182,7 +184,7 @@ class HumanTracker:
             caps = HumanCapsules(caps.p0_b_m, caps.p1_b_m, caps.radius_m, caps.names, t_s=t_s, stale=True,
                                  reason=f"laser silent for {scan_age:.2f} s; " + caps.reason, ages_s=caps.ages_s)
         elif caps.present and torso_age <= self.policy.laser_stale_after_s:
-            caps = self._with_velocities(caps, t_s, until_s, fresh_imus, xy)
+            caps = self._with_velocities(caps, velocity, t_s, until_s, fresh_imus, xy)
         return caps
 
     def _arm_velocities(self, caps: HumanCapsules, streams, xy: np.ndarray, t_s: float,
@@ -200,14 +202,14 @@ class HumanTracker:
         return ((caps.p0_b_m - before.p0_b_m) / ARM_VELOCITY_WINDOW_S,
                 (caps.p1_b_m - before.p1_b_m) / ARM_VELOCITY_WINDOW_S)
 
-    def _with_velocities(self, caps: HumanCapsules, t_s: float, until_s: float | None, fresh_imus,
-                         xy: np.ndarray) -> HumanCapsules:
-        """The capsules' end-point velocities: the tracked torso's (the person tracker's Kalman
-        velocity) on every end point, plus, with five fresh IMUs (``fresh_imus``: their streams,
-        else None), each end point's own motion relative to the torso (``_arm_velocities``).
-        While the torso is not seen, no velocity (the stale growth covers it)."""
-        velocity = self.torso_velocity_at(t_s, until_s)
-        if velocity is None or not np.all(np.isfinite(velocity)):
+    def _with_velocities(self, caps: HumanCapsules, velocity: np.ndarray | None, t_s: float,
+                         until_s: float | None, fresh_imus, xy: np.ndarray) -> HumanCapsules:
+        """The capsules' end-point velocities: the tracked torso's ``velocity`` (the person
+        tracker's Kalman velocity, ``torso_velocity_at``; None: unknown) on every end point, plus,
+        with five fresh IMUs (``fresh_imus``: their streams, else None), each end point's own
+        motion relative to the torso (``_arm_velocities``). While the torso is not seen, no
+        velocity (the stale growth covers it)."""
+        if velocity is None:
             return caps
         v0 = np.zeros((len(caps.names), 3))
         v0[:, :2] = velocity
