@@ -27,8 +27,9 @@ class FilterSettings:
       (``MotionLimits.ee_speed_m_s``); the demo's gizmo asks for 0.25 (ISO/TS 15066's
       reduced speed suggestion for collaborative operation), the filter never more than this for
       a command; a retreat from a person walking at the arm may exceed it (the cap is planned and
-      gives way to safety; the anticipative arm's cap is then ``brake_share`` of the robot's own
-      ``ee_speed_m_s`` when that is more), never the robot's own ``ee_speed_m_s``.
+      gives way to safety; the anticipative arm's cap is then ``step_kernel.EE_MOTION_SHARE``
+      (0.9) of the robot's own ``ee_speed_m_s`` when that is more), never the robot's own
+      ``ee_speed_m_s``.
     * ``activation_m`` 0.15: metric limitations (zones, table, reach) farther than this do not
       enter the filter (the braking distance at the cap is ~0.03 m).
     * ``buffer_m`` / ``buffer_rad`` 1e-3: the filter keeps this clearance, so the second-order

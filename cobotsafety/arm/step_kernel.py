@@ -617,10 +617,13 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     ee_velocity_prev = matvec(J, qdot_prev)
     ee_speed_prev = np.max(np.abs(ee_velocity_prev))  # its fastest axis: the box is per axis
     # The command's cap bounds what the user asks for; from a person walking at the arm the
-    # anticipative arm may flee faster, at the plan's share of the robot's own end-effector
-    # speed (``brake_share``: the rest in reserve, as for braking; at the command's cap a
-    # retreat went at 0.5 m/s from people coming at 1-2 m/s).
-    flee_cap = max(speed_cap, brake_share * ee_speed)
+    # anticipative arm may flee faster, at the share of the robot's own end-effector speed the
+    # filter plans the hand's motion with (``EE_MOTION_SHARE``; at the full speed a hand fleeing
+    # at the limit had no room for its jerk ramp when the person stopped, and gave up
+    # smoothness; at the command's cap a retreat went at 0.5 m/s from people coming at 1-2 m/s,
+    # at ``brake_share`` of the robot's speed the iiwa's too: breaches the campaign's escape
+    # search found avoidable).
+    flee_cap = max(speed_cap, EE_MOTION_SHARE * ee_speed)
     # The bounds brake within the motion box's own limits (``MOTION_MARGIN`` inside the robot's):
     # with the full limits a safety bound could ask for 1e-4 more than the box gives, and on an
     # AMD EPYC's rounding an iiwa release at its extended reach gave up smoothness for that
