@@ -318,8 +318,9 @@ def test_the_cap_ahead_against_the_exact_second_order_cone_problem():
     narrower at 2 ms).
 
     Always, to the oracle's precision (SLSQP meets the balls to 3.7e-8 of the cap, seeds
-    48-50): every tangent plane the kernel adds holds at the exact optimum (an outer
-    approximation: worst miss 9.2e-9), so the kernel's objective is no worse than the optimum
+    48-50; scipy 1.17.1 on an AVX-512 EPYC to 1.5e-7, problem 113 of seed 48): every tangent
+    plane the kernel adds holds at the exact optimum (an outer approximation: worst miss
+    9.2e-9), so the kernel's objective is no worse than the optimum
     (worst 4.2e-10 above it, relative), which is no worse than the kernel's answer pulled toward
     a point inside both balls until it meets them (a feasible point: the optimum at most
     1.4e-13 above it, rounding); and
@@ -378,7 +379,7 @@ def test_the_cap_ahead_against_the_exact_second_order_cone_problem():
         t = float(np.max(excess / (excess - over(inside))))  # norms are convex in z
         z_pulled = (1.0 - t) * z + t * np.linalg.solve(B, inside - q0)
         reached, optimum, pulled = z @ z, z_exact @ z_exact, z_pulled @ z_pulled
-        assert np.all(over(expected) <= 1e-7) and np.all(N[:count] @ expected >= b[:count] - 1e-9), k
+        assert np.all(over(expected) <= 2e-7) and np.all(N[:count] @ expected >= b[:count] - 1e-9), k
         assert np.all(N_cut[count:used] @ expected >= b_cut[count:used] - 1e-7), k  # outer approximation
         assert reached <= optimum * (1.0 + 1e-8), (k, reached, optimum)
         assert optimum <= pulled * (1.0 + 1e-9), (k, optimum, pulled)
