@@ -124,10 +124,11 @@ class HumanTracker:
 
     def torso_velocity_at(self, t_s: float, until_s: float | None = None) -> np.ndarray | None:
         """Shape (2,) [m/s], the tracked torso velocity in the base frame at the newest sighting
-        visible at ``until_s``; None when the human was never seen."""
+        visible at ``until_s``; None when the human was never seen or it is not finite."""
         if not np.isfinite(self.torso_velocity.age_s(t_s, until_s)):
             return None
-        return self.torso_velocity.value_at(t_s, until_s)
+        velocity = self.torso_velocity.value_at(t_s, until_s)
+        return velocity if np.all(np.isfinite(velocity)) else None
 
     def push_imu(self, t_s: float, name: str, q_ref_imu) -> bool:
         """One IMU reading (xyzw, in its reference frame). False when refused as garbage."""
@@ -152,8 +153,6 @@ class HumanTracker:
         # than until the legs count as lost; from there the pose is held and grows.
         held_s = self.torso.age_s(t_s, until_s)  # < 0: between two sightings, interpolated
         velocity = self.torso_velocity_at(t_s, until_s)  # (also the capsules' velocity below)
-        if velocity is not None and not np.all(np.isfinite(velocity)):
-            velocity = None
         if velocity is not None and held_s > 0.0:
             xy = xy + velocity * min(held_s, self.policy.laser_stale_after_s)
         if laser_alive and torso_age > self.policy.laser_stale_after_s:
