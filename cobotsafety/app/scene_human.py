@@ -21,7 +21,8 @@ import viser
 from cobotsafety.app import draw
 from cobotsafety.human.body import HumanCapsules
 
-MAX_CAPSULES = 5
+MAX_CAPSULES = 8
+"""The wearer's five and three other people (``HumanTracker.others_at``)."""
 ROOT = "/human"
 RADIUS_STEP_M = 0.002
 """Radii are drawn to this step [m] (a stale sensor grows them a little every frame)."""

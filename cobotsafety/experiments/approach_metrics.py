@@ -40,9 +40,9 @@ MOVING_M_S = 1e-2
 
 def nominal_radii(capsules: HumanCapsules, body: BodyDimensions) -> np.ndarray:
     """The human's own radii (k,) [m] for ``capsules.names`` (no stale growth)."""
-    by_name = {"torso": body.torso_radius_m, "body": body.one_capsule_radius_m}
-    return np.array([by_name.get(n, body.forearm_radius_m if n.startswith("forearm") else body.upper_arm_radius_m)
-                     for n in capsules.names])
+    by_name = {"torso": body.torso_radius_m, "body": body.one_capsule_radius_m}  # ("body 2": another person's)
+    return np.array([by_name.get(n.split()[0], body.forearm_radius_m if n.startswith("forearm")
+                                 else body.upper_arm_radius_m) for n in capsules.names])
 
 
 def plain_distance_m(robot_p0, robot_p1, robot_radius, capsules: HumanCapsules, body: BodyDimensions) -> float:

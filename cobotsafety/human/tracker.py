@@ -3,7 +3,8 @@
 Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving average,
 eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs
 paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
-is the confirmed person nearest the robot base; while that person's legs are seen, the torso
+is the confirmed person nearest the robot base (the IMU wearer); every other confirmed person is
+a one-capsule person beside them (``others_at``). While the wearer's legs are seen, the torso
 stream takes the track's filtered position and velocity (``torso_velocity_at``); a human seen
 fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), plus, with
 five fresh IMUs, each end point's own motion relative to the torso (a backward difference of
@@ -25,6 +26,7 @@ makes the human vanish at once.
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -32,7 +34,9 @@ from scipy.spatial.transform import Rotation
 
 from cobotsafety.human.body import BodyDimensions, HumanCapsules
 from cobotsafety.human.capsule_kernel import body_vector
-from cobotsafety.human.conservative import StalePolicy, conservative_capsules, could_have_left, fresh_five_capsules
+from cobotsafety.human.body_capsules import one_capsule
+from cobotsafety.human.conservative import (StalePolicy, conservative_capsules, could_have_left, fresh_five_capsules,
+                                          laser_margin)
 from cobotsafety.sensors.imu import IMU_NAMES, calibrate
 from cobotsafety.sensors.laser_filters import TimeFilter
 from cobotsafety.sensors.laser_scan import LaserScan
@@ -75,6 +79,8 @@ class HumanTracker:
         self.scans = VectorStream("laser", 1, policy.laser_stale_after_s)
         self.torso = VectorStream("torso", 2, policy.laser_stale_after_s)
         self.torso_velocity = VectorStream("torso_velocity", 2, policy.laser_stale_after_s)
+        self._others_t: list[float] = []  # each scan's time and its other people (``_record_others``)
+        self._others: list[np.ndarray] = []
         self.imus: dict[str, QuaternionStream] = {}
         self._r_b_ref: dict[str, Rotation] = {}
         if imu_calibration is not None:
@@ -116,11 +122,46 @@ class HumanTracker:
             return None
         self.persons = self.people.update(t_s, self.legs_from_scan(scan))
         human = self.human_from_people(self.persons)
+        self._record_others(t_s, human)
         if human is None or len(human.leg_xy_m) == 0:
             return None  # not seen now: the torso stream ages and the model grows
         self.torso.push(t_s, human.p_xy_m)
         self.torso_velocity.push(t_s, human.v_xy_m_s)
         return human.p_xy_m
+
+    def _record_others(self, t_s: float, human: Person | None) -> None:
+        """Every other confirmed person of this scan (not ``human``, lost for no longer than the
+        laser's staleness threshold): rows ``x, y, vx, vy, time since seen`` (base frame)."""
+        rows = [[*p.p_xy_m, *p.v_xy_m_s, p.time_since_seen_s] for p in self.persons
+                if p.confirmed and (human is None or p.track_id != human.track_id)
+                and p.time_since_seen_s <= self.policy.laser_stale_after_s]
+        self._others_t.append(t_s)
+        self._others.append(np.array(rows, dtype=float).reshape(-1, 5))
+
+    def others_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
+        """The other people at ``t_s`` [s] from the newest scan visible at ``until_s``: one
+        capsule each (``one_capsule``: any arm pose; nobody's IMUs are theirs), moved on at the
+        track's velocity and grown with the time since seen like the human's (``laser_margin``),
+        named ``body 2``, ``body 3``...; the track's velocity on both end points. Absent when
+        there is nobody else or the newest scan is older than ``StalePolicy.laser_stale_after_s``
+        (then the wearer's rules for a silent laser hold alone)."""
+        horizon = t_s if until_s is None else min(t_s, until_s)
+        k = bisect.bisect_right(self._others_t, horizon) - 1
+        if k < 0 or len(self._others[k]) == 0 or t_s - self._others_t[k] > self.policy.laser_stale_after_s:
+            return HumanCapsules.absent(t_s)  # (a silent laser: the wearer's stale rules alone, as before)
+        held = t_s - self._others_t[k]
+        p0, p1, radius, v = [], [], [], []
+        for x, y, vx, vy, unseen in self._others[k]:
+            xy = np.array([x, y]) + held * np.array([vx, vy])
+            one = one_capsule(xy, self.body, t_s)
+            growth, _, _ = laser_margin(unseen + t_s - self._others_t[k], self.policy)
+            p0.append(one.p0_b_m[0])
+            p1.append(one.p1_b_m[0])
+            radius.append(one.radius_m[0] + growth)
+            v.append([vx, vy, 0.0])
+        names = tuple(f"body {i + 2}" for i in range(len(p0)))
+        return HumanCapsules(np.array(p0), np.array(p1), np.array(radius), names, t_s=t_s,
+                             v0_b_m_s=np.array(v), v1_b_m_s=np.array(v))
 
     def torso_velocity_at(self, t_s: float, until_s: float | None = None) -> np.ndarray | None:
         """Shape (2,) [m/s], the tracked torso velocity in the base frame at the newest sighting
@@ -137,7 +178,14 @@ class HumanTracker:
         return self.imus[name].push(t_s, q_ref_imu)
 
     def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
-        """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None)."""
+        """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None): the
+        IMU wearer (``wearer_at``), then every other person the laser tracks (``others_at``)."""
+        wearer, others = self.wearer_at(t_s, until_s), self.others_at(t_s, until_s)
+        return wearer if not others.present else joined(wearer, others)
+
+    def wearer_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
+        """The human nearest the base (who wears the IMUs) at ``t_s`` [s] from the samples
+        stamped <= ``until_s`` (all when None)."""
         # Ages count from the newest sample at or before t_s, even when later ones are visible.
         horizon = t_s if until_s is None else min(t_s, until_s)
         scan_age = self.scans.age_s(t_s, horizon)
@@ -218,3 +266,17 @@ class HumanTracker:
             v0 += relative[0]
             v1 += relative[1]
         return caps.with_velocities(v0, v1)
+
+
+def joined(wearer: HumanCapsules, others: HumanCapsules) -> HumanCapsules:
+    """The wearer's capsules then the others' in one ``HumanCapsules`` (velocities zero where
+    one side has none; staleness and reasons of the wearer, who may be absent)."""
+    def velocities(caps):
+        zero = np.zeros_like(caps.p0_b_m)
+        return (zero, zero) if caps.v0_b_m_s is None else (caps.v0_b_m_s, caps.v1_b_m_s)
+
+    (w0, w1), (o0, o1) = velocities(wearer), velocities(others)
+    return HumanCapsules(np.vstack((wearer.p0_b_m, others.p0_b_m)), np.vstack((wearer.p1_b_m, others.p1_b_m)),
+                         np.concatenate((wearer.radius_m, others.radius_m)), wearer.names + others.names,
+                         t_s=wearer.t_s, stale=wearer.stale, reason=wearer.reason, ages_s=wearer.ages_s,
+                         v0_b_m_s=np.vstack((w0, o0)), v1_b_m_s=np.vstack((w1, o1)))
