@@ -145,10 +145,10 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
         if present:
             log.torso_xy_m.append(0.5 * (human.p0_b_m[0, :2] + human.p1_b_m[0, :2]))
             plain = plain_distance_m(*robot, human, body)
-            if len(human.names) == 1:
-                one = plain
-            else:
+            if "torso" in human.names:  # the wearer's five capsules (and any other person's one)
                 five = plain
+            else:  # the wearer's one-capsule fallback, or other people alone
+                one = plain
         true = truth.distance_m(*robot, truth_offset_s + t) if truth is not None else np.nan
         for values, value in ((log.t_s, t), (log.seen_m, out.min_distance_m), (log.estimate_m, five),
                               (log.one_capsule_m, one), (log.true_m, true), (log.p_ee_m, out.report.p_base_ee_m),
