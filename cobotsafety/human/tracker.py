@@ -55,6 +55,7 @@ ARM_VELOCITY_WINDOW_S = 0.05
 #: Another track whose torso is within this of the wearer's [m] is the wearer tracked twice
 #: (two people's torsos are at least a shoulder width, ~0.45 m, apart).
 SAME_PERSON_M = 0.45
+_NOBODY_ELSE = np.zeros((0, 5))
 
 
 class HumanTracker:
@@ -149,7 +150,7 @@ class HumanTracker:
                 and t_s - self._paired_s.get(p.track_id, -math.inf) <= stale
                 and (human is None or np.linalg.norm(p.p_xy_m - human.p_xy_m) > SAME_PERSON_M)]
         self._others_t.append(t_s)
-        self._others.append(np.array(rows, dtype=float).reshape(-1, 5))
+        self._others.append(np.array(rows, dtype=float) if rows else _NOBODY_ELSE)
 
     def others_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The other people at ``t_s`` [s] from the newest scan visible at ``until_s``: one
@@ -158,10 +159,9 @@ class HumanTracker:
         named ``body 2``, ``body 3``...; the track's velocity on both end points. Absent when
         there is nobody else or the newest scan is older than ``StalePolicy.laser_stale_after_s``
         (then the wearer's rules for a silent laser hold alone)."""
-        horizon = t_s if until_s is None else min(t_s, until_s)
-        k = bisect.bisect_right(self._others_t, horizon) - 1
-        if k < 0 or len(self._others[k]) == 0 or t_s - self._others_t[k] > self.policy.laser_stale_after_s:
-            return HumanCapsules.absent(t_s)  # (a silent laser: the wearer's stale rules alone, as before)
+        k = self._others_scan(t_s, until_s)
+        if k is None:
+            return HumanCapsules.absent(t_s)
         held = t_s - self._others_t[k]
         p0, p1, radius, v = [], [], [], []
         for x, y, vx, vy, unseen in self._others[k]:
@@ -175,6 +175,16 @@ class HumanTracker:
         names = tuple(f"body {i + 2}" for i in range(len(p0)))
         return HumanCapsules(np.array(p0), np.array(p1), np.array(radius), names, t_s=t_s,
                              v0_b_m_s=np.array(v), v1_b_m_s=np.array(v))
+
+    def _others_scan(self, t_s: float, until_s: float | None) -> int | None:
+        """The newest scan visible at ``until_s`` when it holds other people and is no older
+        than ``StalePolicy.laser_stale_after_s`` at ``t_s`` (a silent laser: the wearer's stale
+        rules alone, as before), else None."""
+        horizon = t_s if until_s is None else min(t_s, until_s)
+        k = bisect.bisect_right(self._others_t, horizon) - 1
+        if k < 0 or not len(self._others[k]) or t_s - self._others_t[k] > self.policy.laser_stale_after_s:
+            return None
+        return k
 
     def torso_velocity_at(self, t_s: float, until_s: float | None = None) -> np.ndarray | None:
         """Shape (2,) [m/s], the tracked torso velocity in the base frame at the newest sighting
@@ -193,8 +203,10 @@ class HumanTracker:
     def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None): the
         IMU wearer (``wearer_at``), then every other person the laser tracks (``others_at``)."""
-        wearer, others = self.wearer_at(t_s, until_s), self.others_at(t_s, until_s)
-        return wearer if not others.present else joined(wearer, others)
+        wearer = self.wearer_at(t_s, until_s)
+        if self._others_scan(t_s, until_s) is None:
+            return wearer
+        return joined(wearer, self.others_at(t_s, until_s))
 
     def wearer_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The IMU wearer (``human_from_people``) at ``t_s`` [s] from the samples
