@@ -160,14 +160,16 @@ class HumanTracker:
         there is nobody else or the newest scan is older than ``StalePolicy.laser_stale_after_s``
         (then the wearer's rules for a silent laser hold alone)."""
         k = self._others_scan(t_s, until_s)
-        if k is None:
-            return HumanCapsules.absent(t_s)
+        return HumanCapsules.absent(t_s) if k is None else self._others_from(k, t_s)
+
+    def _others_from(self, k: int, t_s: float) -> HumanCapsules:
+        """``others_at`` from scan ``k`` (``_others_scan``)."""
         held = t_s - self._others_t[k]
         p0, p1, radius, v = [], [], [], []
         for x, y, vx, vy, unseen in self._others[k]:
             xy = np.array([x, y]) + held * np.array([vx, vy])
             one = one_capsule(xy, self.body, t_s)
-            growth, _, _ = laser_margin(unseen + t_s - self._others_t[k], self.policy)
+            growth, _, _ = laser_margin(unseen + held, self.policy)
             p0.append(one.p0_b_m[0])
             p1.append(one.p1_b_m[0])
             radius.append(one.radius_m[0] + growth)
@@ -203,10 +205,8 @@ class HumanTracker:
     def capsules_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The human at ``t_s`` [s] from the samples stamped <= ``until_s`` (all when None): the
         IMU wearer (``wearer_at``), then every other person the laser tracks (``others_at``)."""
-        wearer = self.wearer_at(t_s, until_s)
-        if self._others_scan(t_s, until_s) is None:
-            return wearer
-        return joined(wearer, self.others_at(t_s, until_s))
+        wearer, k = self.wearer_at(t_s, until_s), self._others_scan(t_s, until_s)
+        return wearer if k is None else joined(wearer, self._others_from(k, t_s))
 
     def wearer_at(self, t_s: float, until_s: float | None = None) -> HumanCapsules:
         """The IMU wearer (``human_from_people``) at ``t_s`` [s] from the samples
