@@ -1,19 +1,19 @@
 """``HumanTracker``: the live pipeline from laser scans and IMU samples to human capsules.
 
-Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving average,
-eq. 2-3, background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs
-paired into people, eq. 4, each a constant-velocity Kalman track in the base frame). The human
-is the confirmed person nearest the robot base (the IMU wearer); every other confirmed person
-whose two legs were seen lately is a one-capsule person beside them (``others_at``). While the wearer's legs are seen, the torso
-stream takes the track's filtered position and velocity (``torso_velocity_at``); a human seen
-fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), plus, with
-five fresh IMUs, each end point's own motion relative to the torso (a backward difference of
+Per scan: paper 2's time filter (eq. 1) and clipping -> ``detect_legs`` (moving average, eq. 2-3,
+background removal) -> ``ScannerPose.to_base`` (eq. 10) -> ``PersonTracker`` (legs paired into
+people, eq. 4, each a constant-velocity Kalman track in the base frame). The human is the confirmed
+person nearest the robot base (the IMU wearer); every other confirmed person whose two legs were
+seen lately is a one-capsule person beside them (``others_at``). While the wearer's legs are seen,
+the torso stream takes the track's filtered position and velocity (``torso_velocity_at``); a human
+seen fresh carries that velocity on every capsule end point (``HumanCapsules.v0_b_m_s``), plus,
+with five fresh IMUs, each end point's own motion relative to the torso (a backward difference of
 the IMU chain over ``ARM_VELOCITY_WINDOW_S``): the one estimate of the human's motion the
-controller uses (a reaching hand is seen coming, not only where it is). Per IMU
-sample: eq. 6 with the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated (past its
-newest sighting: moved on at the tracked velocity, at most ``StalePolicy.laser_stale_after_s``),
-IMU orientations slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules
-of ``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
+controller uses (a reaching hand is seen coming, not only where it is). Per IMU sample: eq. 6 with
+the calibration of eq. 5. ``capsules_at(t_s)``: torso xy interpolated (past its newest sighting:
+moved on at the tracked velocity, at most ``StalePolicy.laser_stale_after_s``), IMU orientations
+slerped (``sensors.streams``), the chain of eqs. 7-12, then the conservative rules of
+``conservative.py`` (fresh IMUs: all of it in one compiled call, ``capsule_kernel``).
 ``until_s`` hides samples stamped after it (a causal replay passes ``until_s = t_s``).
 
 Absence: a person whose legs are no longer seen (occluded, lost, or gone) keeps the last
@@ -142,9 +142,9 @@ class HumanTracker:
         tracks there (exp1's synthetic scans, extra capsules over 700 samples with a human: 435
         counting every confirmed track, 118 with the two legs, 93 with both rules)."""
         stale = self.policy.laser_stale_after_s
-        for p in self.persons:
-            if len(p.leg_xy_m) == 2:
-                self._paired_s[p.track_id] = t_s
+        # (kept for the tracks of this scan only: a track id is never reused once dropped)
+        self._paired_s = {p.track_id: t_s if len(p.leg_xy_m) == 2 else self._paired_s.get(p.track_id, -math.inf)
+                          for p in self.persons}
         rows = [[*p.p_xy_m, *p.v_xy_m_s, p.time_since_seen_s] for p in self.persons
                 if p.confirmed and (human is None or p.track_id != human.track_id) and p.time_since_seen_s <= stale
                 and t_s - self._paired_s.get(p.track_id, -math.inf) <= stale
