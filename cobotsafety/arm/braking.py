@@ -48,9 +48,13 @@ def positive_root(k, lead, room):  # pragma: no cover - compiled
     ``room`` <= 0): a speed ``x`` braked at ``k`` after ``lead`` seconds, or an acceleration
     ramped down at jerk ``k``, that covers ``room``. Written ``2 room / (lead + sqrt(lead^2 +
     2 room / k))``, which does not cancel when ``room`` is small (the textbook ``k (sqrt(...) -
-    lead)`` loses the digits the subtraction takes)."""
+    lead)`` loses the digits the subtraction takes). An infinite ``room`` (no limit on that
+    side, as the end-effector's speed in its acceleration box) is covered by no finite ``x``:
+    ``inf`` (the quotient would be ``inf / inf``, NaN)."""
     if room <= 0.0:
         return 0.0
+    if room == np.inf:
+        return np.inf
     return 2.0 * room / (lead + np.sqrt(lead * lead + 2.0 * room / k))
 
 
