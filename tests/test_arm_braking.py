@@ -43,13 +43,13 @@ def test_positive_root_is_the_root_to_the_last_digits_even_for_a_small_room(k, l
     assert positive_root(k, lead, -room) == positive_root(k, lead, 0.0) == 0.0
 
 
-
 def test_positive_root_of_an_infinite_room_is_infinite_not_nan():
     """The end-effector's acceleration box has no speed limit (``vel`` inf): the room toward
     it is infinite, and so is the acceleration that may ramp toward it (the quotient form
     gave ``inf / inf``, a NaN that ``min`` happened to discard in one argument order)."""
     for k, lead in ((23.1, 0.0055), (1.0, 0.0), (5e3, 1.0)):
         assert positive_root(k, lead, np.inf) == np.inf
+
 
 def _joints_best_rate_acceleration(a, qddot, acc, jerk, t):
     """The most the joints can raise ``a . qddot`` in ``t`` seconds: each joint ramps its own

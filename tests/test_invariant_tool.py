@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from cobotsafety.tools import invariant
 
 
@@ -22,10 +24,7 @@ def test_one_line_per_seed_then_a_summary_that_counts_the_runs(capsys):
 
 
 def test_zero_seeds_is_refused_in_one_line(capsys):
-    try:
+    with pytest.raises(SystemExit) as stop:
         invariant.main(["--robot", "panda", "--seeds", "0"])
-    except SystemExit as stop:
-        assert stop.code == 2
-    else:
-        raise AssertionError("--seeds 0 was accepted")
+    assert stop.value.code == 2
     assert "--seeds must be >= 1" in capsys.readouterr().err

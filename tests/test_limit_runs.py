@@ -99,7 +99,6 @@ def test_a_drive_at_the_box_zone_holds_the_limits_as_its_capsule_tilts_along_a_f
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
 
 
-
 FAST_TABLE = ("the iiwa's hand brakes at 0.58 m/s^2 per axis in the plan (half of 2 m/s^2 / sqrt 3): 0.22 m "
               "from 0.5 m/s, 0.70 m from 0.9 m/s, but the table's rows enter the filter only within "
               "FilterSettings.activation_m (0.15 m), so the last of the braking is done beyond the limits "
@@ -127,6 +126,7 @@ def test_a_fast_drive_down_brakes_for_the_table_within_the_limits(robot, speed, 
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.safety_over_smoothness_steps == 0
+
 
 def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, capsys, tmp_path):
     from cobotsafety.cli import main

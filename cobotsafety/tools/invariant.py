@@ -83,8 +83,9 @@ def run_invariant(robot: str, steps: int, seed: int = 0, dt_s: float = 0.001) ->
         return np.concatenate([q[iq] - model.lower[iq], model.upper[iq] - q[iq]]), zone_distances(state, controller.zones)
 
     joint_before, zone_before = distances()
-    counts = {"robot": robot, "seed": seed, "steps": steps, "dt_s": dt_s, "joint_crossings": 0, "zone_penetrations": 0,
-              "nan_steps": 0, "safety_net_steps": 0, "safety_over_smoothness_steps": 0, "stopped_steps": 0}
+    counts = {"robot": robot, "seed": seed, "steps": steps, "dt_s": dt_s, "joint_crossings": 0,
+              "zone_penetrations": 0, "nan_steps": 0, "safety_net_steps": 0, "safety_over_smoothness_steps": 0,
+              "stopped_steps": 0}
     direction = np.zeros(3)
     for i in range(steps):
         if i % 100 == 0:
