@@ -23,8 +23,10 @@ def test_one_line_per_seed_then_a_summary_that_counts_the_runs(capsys):
     assert counted["runs_with_joint_crossings"] == sum(run["joint_crossings"] > 0 for run in made)
 
 
-def test_zero_seeds_is_refused_in_one_line(capsys):
+@pytest.mark.parametrize("bad, words", [(["--seeds", "0"], "--seeds must be >= 1"), (["--seed", "-1"], "--seed >= 0")])
+def test_a_bad_seed_count_or_seed_is_refused_in_one_line(capsys, bad, words):
     with pytest.raises(SystemExit) as stop:
-        invariant.main(["--robot", "panda", "--seeds", "0"])
+        invariant.main(["--robot", "panda", *bad])
     assert stop.value.code == 2
-    assert "--seeds must be >= 1" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err

@@ -116,8 +116,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="runs per robot, seeds --seed, --seed + 1, ...; more than one adds a line per robot "
                              "with the runs that crossed, penetrated or gave up smoothness (default 1)")
     args = parser.parse_args(argv)
-    if args.steps < 1 or not (0.0 < args.dt <= 0.01) or args.seeds < 1:
-        parser.error("--steps and --seeds must be >= 1 and --dt in (0, 0.01] s")
+    if args.steps < 1 or not (0.0 < args.dt <= 0.01) or args.seeds < 1 or args.seed < 0:
+        parser.error("--steps and --seeds must be >= 1, --seed >= 0 and --dt in (0, 0.01] s")
     for robot in args.robot or list(ROBOTS):
         runs = [run_invariant(robot, args.steps, seed, args.dt) for seed in range(args.seed, args.seed + args.seeds)]
         for run in runs:
