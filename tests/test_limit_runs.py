@@ -165,3 +165,42 @@ def test_the_command_prints_one_object_per_run_with_the_issue_keys(monkeypatch, 
     assert set(row) == {"run", "robot", "dt_s", *KEYS}
     assert (row["run"], row["robot"], row["dt_s"]) == ("drag-turns", "panda", 0.001)
     assert isinstance(row["safety_over_smoothness_steps"], int)
+
+
+def test_the_periods_spread_evenly_around_the_period_with_it_in_the_middle():
+    assert limit_runs.periods(1 / 275, 1, 0.05) == [1 / 275]
+    spread = limit_runs.periods(1 / 275, 5, 0.01)
+    assert spread[2] == 1 / 275  # bit for bit: the period itself is one of them
+    assert np.allclose(spread, np.array([0.99, 0.995, 1.0, 1.005, 1.01]) / 275, rtol=1e-14, atol=0)
+    assert limit_runs.periods(0.001, 2, 0.01) == pytest.approx([0.00099, 0.00101], rel=1e-14)
+
+
+def test_several_periods_run_every_run_at_each_and_name_those_that_gave_up_smoothness(monkeypatch, capsys):
+    """``--periods 3``: each run at 0.99, 1 and 1.01 ms; the table says which periods counted
+    steps giving up smoothness (here made up: the first two), the JSON one object per run and
+    period."""
+    from cobotsafety.cli import main
+    from cobotsafety.experiments.motion_ratios import MotionRatios
+
+    seen = []
+
+    def fake(robot, dt_s):
+        seen.append(dt_s)
+        ratios = MotionRatios(0.5, 0.5, 0.5, None, None, None, 0, None, None, 1.0)
+        counted = {0: 4, 1: 1}.get(len(seen) - 1, 0)
+        return [limit_runs.LimitRun(name, robot, dt_s, ratios, counted if name == "drag-turns" else 0, np.zeros((1, 7)))
+                for name in ("drag-turns", "drag-release")]
+
+    monkeypatch.setattr(limit_runs, "scripted_runs", fake)
+    assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--periods", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert seen == pytest.approx([0.00099, 0.001, 0.00101], rel=1e-14) and seen[1] == 0.001
+    assert printed.splitlines()[-1] == "periods giving up smoothness: 2 of 3 (0.99 ms: 4, 1 ms: 1)"
+    assert len([line for line in printed.splitlines() if line.startswith("drag-")]) == 6
+    seen.clear()
+    assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--periods", "2", "--spread",
+                 "0.05", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [(r["run"], r["dt_s"]) for r in rows] == [("drag-turns", seen[0]), ("drag-release", seen[0]),
+                                                    ("drag-turns", seen[1]), ("drag-release", seen[1])]
+    assert seen == pytest.approx([0.00095, 0.00105], rel=1e-14)

@@ -21,6 +21,11 @@ Each run prints ``run``, ``robot``, ``dt_s``, ``max_joint_velocity_ratio``,
 ``safety_over_smoothness_steps`` (steps the controller kept a limitation over the acceleration
 or jerk limits; each counted, never silent). ``--out DIR`` plots the first run's joint
 velocity and acceleration against their limits.
+
+``--periods N`` runs them all at N control periods spread evenly over ``--dt`` times ``1 +-
+--spread`` (default 1 %; odd N: ``--dt`` itself in the middle) and ends the table with how many
+periods gave up smoothness: a filter that holds the limits at exactly 1 ms may not 1 % off it
+(docs/motion_limits.md), and a real controller's period is measured, not exact.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cobotsafety.cli.arguments import bounded_float
+from cobotsafety.cli.arguments import bounded_float, positive_int
 
 KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio", "max_ee_jerk_m_s3",
         "safety_over_smoothness_steps")
@@ -203,6 +208,25 @@ def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
     return runs
 
 
+def periods(dt_s: float, count: int, spread: float) -> list[float]:
+    """``count`` control periods [s] spread evenly over ``dt_s (1 +- spread)``; one: ``dt_s``
+    (an odd count has ``dt_s`` itself, bit for bit, in the middle)."""
+    if count == 1:
+        return [dt_s]
+    return [float(dt_s * (1.0 + spread * f)) for f in np.linspace(-1.0, 1.0, count)]
+
+
+def period_summary(rows: list[dict]) -> str:
+    """One line: how many of the rows' periods gave up smoothness, and each such period's
+    counted steps (over all its runs)."""
+    counted: dict[float, int] = {}
+    for row in rows:
+        counted[row["dt_s"]] = counted.get(row["dt_s"], 0) + row["safety_over_smoothness_steps"]
+    bad = {dt: n for dt, n in counted.items() if n}
+    detail = ", ".join(f"{dt * 1e3:.6g} ms: {n}" for dt, n in sorted(bad.items()))
+    return f"periods giving up smoothness: {len(bad)} of {len(counted)}" + (f" ({detail})" if detail else "")
+
+
 def plot(run: LimitRun, controller_limits, out: Path) -> Path:
     """The run's joint velocity and acceleration, each over its limit (1 = the limit)."""
     import matplotlib
@@ -237,6 +261,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="panda", help="robot name (default panda)")
     parser.add_argument("--dt", type=bounded_float(0.0, 0.01, "s"), default=0.001,
                         help="control period [s] (default 0.001; paper 2's robot: 1/275)")
+    parser.add_argument("--periods", type=positive_int, default=1, metavar="N",
+                        help="run at N periods spread over DT (1 +- SPREAD) (default 1: DT alone)")
+    parser.add_argument("--spread", type=bounded_float(0.0, 0.1, "of DT"), default=0.01,
+                        help="the periods' relative spread with --periods (default 0.01: 1 %%)")
     parser.add_argument("--no-recordings", action="store_true", help="skip paper 2's three recordings")
     parser.add_argument("--json", action="store_true", help="print a JSON list, one object per run")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR",
@@ -247,17 +275,23 @@ def run(args: argparse.Namespace) -> int:
     from cobotsafety.arm.robots import robot_spec
 
     robot_spec(args.robot)
-    runs = scripted_runs(args.robot, args.dt)
-    if not args.no_recordings:
-        runs += recording_runs(args.robot, args.dt)
+    runs = []
+    for dt_s in periods(args.dt, args.periods, args.spread):
+        runs += scripted_runs(args.robot, dt_s)
+        if not args.no_recordings:
+            runs += recording_runs(args.robot, dt_s)
     rows = [r.as_json() for r in runs]
     if args.json:
         print(json.dumps(rows))
     else:
-        print(f"{'run':<28}" + "".join(f"{k.replace('max_', '').replace('_ratio', ''):>22}" for k in KEYS))
+        several = args.periods > 1
+        print(f"{'run':<28}" + (f"{'dt [ms]':>12}" if several else "")
+              + "".join(f"{k.replace('max_', '').replace('_ratio', ''):>22}" for k in KEYS))
         for row in rows:
             cells = "".join(f"{'-' if row[k] is None else row[k]:>22}" for k in KEYS)
-            print(f"{row['run']:<28}{cells}")
+            print(f"{row['run']:<28}" + (f"{row['dt_s'] * 1e3:>12.6g}" if several else "") + cells)
+        if several:
+            print(period_summary(rows))
     if args.out is not None:
         from cobotsafety.arm.controller import ArmController
 
