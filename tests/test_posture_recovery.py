@@ -162,3 +162,30 @@ def test_a_task_wound_into_joint_limits_completes_through_the_move_home(with_rec
     else:
         assert log.completion_s is None
         assert np.linalg.norm(controller.arm.state.p_world_ee - p) < 0.02  # held still for 20 s
+
+
+def test_the_move_home_of_an_arm_with_continuous_joints_goes_the_joint_way_home():
+    """The JACO2 (``kinova``) stores its continuous joints as cos / sin (nq = 9, nv = 6): the move
+    home is ``pin.difference`` from the joints now to home, the same motion a revolute arm's
+    subtraction gives; without a difference such an arm is refused in one line. Before,
+    ``experiment human-approach --robot kinova`` (and the campaign) stopped on that refusal."""
+    import pinocchio as pin
+
+    model = ArmController("kinova").model
+    home, limits = model.home_q, model.limits.velocity_rad_s
+    with pytest.raises(ValueError, match="needs a difference"):
+        PostureRecovery(home, limits)
+    recovery = PostureRecovery(home, limits, difference=lambda a, b: pin.difference(model.model, a, b))
+    away = np.array([0.3, -0.2, 0.25, -3.0, 0.1, 3.0])  # joints 1, 4, 6 continuous: 3 rad, not 2 pi - 3
+    q = pin.integrate(model.model, home, away)
+    recovery.recovering = True
+    ratio = np.max(np.abs(away) / (recovery.speed_share * limits))  # > 1: scaled to half the speed limits
+    np.testing.assert_allclose(recovery.command(0.0, q, HAND, TARGET, blocked=True), -away / ratio, atol=1e-12)
+
+
+def test_paper_2s_experiment_runs_on_the_arm_with_continuous_joints():
+    from cobotsafety.experiments.human_approach import run_approach
+
+    run = run_approach("anticipative", scenario="exp1", robot="kinova", duration_s=0.5)
+    q = run.log.commanded_path()[0]
+    assert q.shape[1] == 9 and len(q) > 0.5 * 275 and np.all(np.isfinite(q))

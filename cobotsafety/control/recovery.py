@@ -36,6 +36,7 @@ Settings, from stated principles (fixed before any campaign figure):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,11 +46,14 @@ import numpy as np
 class PostureRecovery:
     """The posture move home of a task stalled at joint limits (module docstring).
 
-    ``q_home_rad`` (nq,) the home posture (a revolute arm: nq = nv); ``velocity_limit_rad_s``
-    (nv,) the joints' speed limits."""
+    ``q_home_rad`` (nq,) the home posture; ``velocity_limit_rad_s`` (nv,) the joints' speed
+    limits; ``difference(q0, q1)`` (nv,) the joint motion from ``q0`` to ``q1``
+    (``pin.difference``), needed when nq != nv (continuous joints stored as cos / sin: the
+    JACO2); None: ``q1 - q0`` (a revolute arm)."""
 
     q_home_rad: np.ndarray
     velocity_limit_rad_s: np.ndarray
+    difference: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     near_m: float = 0.05
     stall_s: float = 2.0
     progress_m: float = 0.01
@@ -67,9 +71,16 @@ class PostureRecovery:
     def __post_init__(self):
         self.q_home_rad = np.array(self.q_home_rad, dtype=float)
         self.velocity_limit_rad_s = np.array(self.velocity_limit_rad_s, dtype=float)
-        if self.q_home_rad.shape != self.velocity_limit_rad_s.shape:
-            raise ValueError(f"q_home_rad {self.q_home_rad.shape} and velocity_limit_rad_s "
-                             f"{self.velocity_limit_rad_s.shape} must have the same shape (a revolute arm)")
+        motion = self._to_home(self.q_home_rad)
+        if motion.shape != self.velocity_limit_rad_s.shape:
+            raise ValueError(f"the motion home {motion.shape} and velocity_limit_rad_s "
+                             f"{self.velocity_limit_rad_s.shape} differ in shape (nq != nv needs a difference)")
+
+    def _to_home(self, q_rad: np.ndarray) -> np.ndarray:
+        """The joint motion (nv,) from ``q_rad`` to home."""
+        if self.difference is None:
+            return self.q_home_rad - q_rad
+        return np.asarray(self.difference(q_rad, self.q_home_rad), dtype=float)
 
     def _restart(self, t_s: float, measure: float, target: np.ndarray | None = None) -> None:
         self._since_s, self._best, self._target = t_s, measure, target
@@ -82,7 +93,7 @@ class PostureRecovery:
         ``p_target_m`` (3,) the task's target now [m]; ``blocked`` the last step slid on a joint
         limit and on no person's row (``ArmController.blocked_by_joint_limits``)."""
         if self.recovering:
-            offset = self.q_home_rad - q_rad
+            offset = self._to_home(q_rad)
             remaining = float(np.max(np.abs(offset)))
             if remaining <= self.home_rad:
                 self.recovering = False

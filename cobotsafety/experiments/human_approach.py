@@ -109,6 +109,8 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     until the path is done (end-effector within ``completion_tolerance_m`` of its end) or
     ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance. A task
     stalled at joint limits moves its posture home and resumes (``control.recovery``)."""
+    import pinocchio as pin
+
     from cobotsafety.control.pi import AntiWindupPI
     from cobotsafety.control.recovery import PostureRecovery
     from cobotsafety.experiments import approach_step
@@ -117,7 +119,9 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     arm = controller.arm
     skip = arm.human.skip_capsules
     pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=settings.ATTRACTION_LIMIT_M_S)
-    recovery = PostureRecovery(arm.model.home_q, arm.model.limits.velocity_rad_s, near_m=path.max_lag_m)
+    model = arm.model.model
+    recovery = PostureRecovery(arm.model.home_q, arm.model.limits.velocity_rad_s, near_m=path.max_lag_m,
+                               difference=lambda a, b: pin.difference(model, a, b))
     blocked = False
     log = EpisodeLog()
     end_point = path.point(path.length_m)
