@@ -26,3 +26,8 @@ class MotionLimitsError(CobotSafetyError, ValueError):
 
 class PseudonymError(CobotSafetyError, ValueError):
     """A participant pseudonym that could not name a file safely, or one given twice."""
+
+
+class TaskError(CobotSafetyError, RuntimeError):
+    """A task that cannot be done on this robot (the campaign's pick-and-place path does not
+    complete with nobody there); the message names robot and task."""

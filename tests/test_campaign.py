@@ -265,3 +265,17 @@ def test_a_tiny_campaign_on_a_local_ray_instance_gives_the_same_results(tiny, tm
     assert result["timing"]["tasks_run"] == 2
     for i in range(2):
         assert result_path(tmp_path, "iiwa", "stop", i).read_bytes() == result_path(out, "iiwa", "stop", i).read_bytes()
+
+
+def test_a_robot_whose_task_does_not_complete_alone_is_refused_in_one_line(tmp_path, capsys):
+    """The z1's hand cannot finish the campaign's pick-and-place path with nobody there: no time
+    lost could be measured, so the command refuses it, one line, exit 2 (a RuntimeError's
+    traceback before)."""
+    from cobotsafety.cli import main
+
+    assert main(["campaign", "--robot", "z1", "--people", "1", "--controller", "anticipative", "--workers", "1",
+                 "--no-escape-check", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == ("cobotsafety campaign: z1: the campaign task does not complete with nobody there (in "
+                       "120 s): no time lost or completion can be measured on it")
+    assert not any("Traceback" in line for line in err)

@@ -20,6 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from cobotsafety.errors import TaskError
 from cobotsafety.experiments import approach_settings as settings
 
 TIMEOUT_EXTRA_S = 30.0
@@ -57,7 +58,8 @@ def nominal_completion_s(robot: str, dt_s: float) -> float:
     path = campaign_task(approach_step.state(controller).p_world_ee.copy())
     log = run_episode(controller, _Nobody(), BodyDimensions(), path, dt_s, 120.0)
     if log.completion_s is None:
-        raise RuntimeError(f"{robot}: the campaign task does not complete with nobody there")
+        raise TaskError(f"{robot}: the campaign task does not complete with nobody there (in 120 s): no time "
+                        f"lost or completion can be measured on it")
     return float(log.completion_s)
 
 
