@@ -195,8 +195,14 @@ def test_several_periods_run_every_run_at_each_and_name_those_that_gave_up_smoot
     assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--periods", "3"]) == 0
     printed = capsys.readouterr().out
     assert seen == pytest.approx([0.00099, 0.001, 0.00101], rel=1e-14) and seen[1] == 0.001
-    assert printed.splitlines()[-1] == "periods giving up smoothness: 2 of 3 (0.99 ms: 4, 1 ms: 1)"
+    assert printed.splitlines()[-1] == ("periods giving up smoothness: 2 of 3; outside reach-over: 2 of 3 (0.99 ms: "
+                                        "4, 1 ms: 1)")
     assert len([line for line in printed.splitlines() if line.startswith("drag-")]) == 6
+    # the stress case counts in the first figure only
+    stress = [{"run": "reach-over", "dt_s": dt, "safety_over_smoothness_steps": 9} for dt in seen]
+    drag = [{"run": "drag-turns", "dt_s": seen[1], "safety_over_smoothness_steps": 2}]
+    assert limit_runs.period_summary(stress + drag) == ("periods giving up smoothness: 3 of 3; outside reach-over: "
+                                                        "1 of 3 (1 ms: 2)")
     seen.clear()
     assert main(["experiment", "limits", "--robot", "panda", "--no-recordings", "--periods", "2", "--spread",
                  "0.05", "--json"]) == 0
