@@ -63,6 +63,13 @@ class RobotModel:
     def home_q(self) -> np.ndarray:
         return np.array(self.spec.home_q, dtype=float)
 
+    def difference(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """The joint motion (nv,) from ``q0`` to ``q1`` (nq,) (``pin.difference``: a continuous
+        joint stored as cos / sin the short way round; a revolute one ``q1 - q0``)."""
+        import pinocchio as pin
+
+        return pin.difference(self.model, q0, q1)
+
     @classmethod
     def load(cls, name: str = DEFAULT_ROBOT, capsules: str = "fitted") -> "RobotModel":
         """Load robot ``name`` with its ``capsules`` table ("fitted" or "paper"): once per

@@ -109,8 +109,6 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     until the path is done (end-effector within ``completion_tolerance_m`` of its end) or
     ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance. A task
     stalled at joint limits moves its posture home and resumes (``control.recovery``)."""
-    import pinocchio as pin
-
     from cobotsafety.control.pi import AntiWindupPI
     from cobotsafety.control.recovery import PostureRecovery
     from cobotsafety.experiments import approach_step
@@ -119,9 +117,8 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     arm = controller.arm
     skip = arm.human.skip_capsules
     pi = AntiWindupPI(kp_per_s=3.0, ki_per_s2=1.0, limit=settings.ATTRACTION_LIMIT_M_S)
-    model = arm.model.model
     recovery = PostureRecovery(arm.model.home_q, arm.model.limits.velocity_rad_s, near_m=path.max_lag_m,
-                               difference=lambda a, b: pin.difference(model, a, b))
+                               difference=arm.model.difference)
     blocked = False
     log = EpisodeLog()
     end_point = path.point(path.length_m)
@@ -169,14 +166,11 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
 
 def episode_metrics(log: EpisodeLog, dt_s: float, controller) -> RunMetrics:
     """The run's metrics; the motion against the robot's own limits (``MotionLimits``)."""
-    import pinocchio as pin
-
     from cobotsafety.experiments.motion_ratios import motion_ratios
 
     arm = controller.arm
-    model = arm.model.model
     q, p_ee = log.commanded_path()  # from rest where the run began, not after its first step
-    ratios = motion_ratios(q, dt_s, arm.model.limits, lambda a, b: pin.difference(model, a, b), p_ee)
+    ratios = motion_ratios(q, dt_s, arm.model.limits, arm.model.difference, p_ee)
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
                        log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,
                        arm.smoothness_steps)

@@ -73,8 +73,6 @@ class LimitRun:
 
 def _measure(name: str, controller, commands, dt_s: float) -> LimitRun:
     """Step ``controller`` (at rest) through ``commands`` (an iterable of (3,) velocities)."""
-    import pinocchio as pin
-
     from cobotsafety.experiments.motion_ratios import motion_ratios
 
     state = controller.state
@@ -84,10 +82,8 @@ def _measure(name: str, controller, commands, dt_s: float) -> LimitRun:
         controller.step(v, dt_s, "anticipative")
         qs.append(state.q.copy())
         ps.append(state.p_world_ee.copy())
-    model = controller.model.model
     q_path = np.array(qs)
-    ratios = motion_ratios(q_path, dt_s, controller.model.limits, lambda a, b: pin.difference(model, a, b),
-                           np.array(ps))
+    ratios = motion_ratios(q_path, dt_s, controller.model.limits, controller.model.difference, np.array(ps))
     return LimitRun(name, controller.model.name, dt_s, ratios, controller.smoothness_steps - steps_before, q_path)
 
 

@@ -144,7 +144,7 @@ def motion_ratios(q_path, dt_s: float, limits: MotionLimits,
     """Ratios of a run's commanded joint path ``q_path`` (T, nq) at period ``dt_s`` [s] to ``limits``.
 
     ``difference(q0, q1)`` -> tangent-space difference (nv,), e.g.
-    ``lambda a, b: pin.difference(model, a, b)``; ``p_ee_path`` (T, 3) [m] adds the end-effector's
+    ``RobotModel.difference``; ``p_ee_path`` (T, 3) [m] adds the end-effector's
     worst speed, acceleration and jerk. See the module docstring for the formulas.
     """
     d = joint_derivatives(q_path, dt_s, difference, from_rest)
