@@ -101,8 +101,9 @@ def test_a_drive_at_the_box_zone_holds_the_limits_as_its_capsule_tilts_along_a_f
 
 OFF_PERIOD = ("1 % off the measured 1 ms the iiwa's drags give up smoothness (0.99 ms, drag-turns: 48 steps, "
               "jerk 102 times its limit, joint a6's upper limit and the extended reach binding at once; 1.01 ms, "
-              "drag-release: 70, the extended reach): each row's braking capacity assumes the joints' whole "
-              "capacity along its own normal (docs/motion_limits.md, 'Sample periods')")
+              "drag-release: 70, the same two): each row's bound is viable alone, but the joints that would "
+              "hold the hand off the reach while the wrist brakes are committed the other way, and their jerk "
+              "limits take 30-50 ms to turn them (docs/motion_limits.md, 'Two limitations at once')")
 
 
 @pytest.mark.parametrize("robot, run, dt_s", [
