@@ -16,7 +16,7 @@ from cobotsafety.arm.controller import YIELD_DWELL_S, ArmController, HumanWatchd
 from cobotsafety.arm.filter_settings import FilterSettings
 from cobotsafety.arm.limitations import BoxZone, HumanLimitation
 from cobotsafety.arm.ssm import SsmParams
-from cobotsafety.arm.step_kernel import EE_MOTION_SHARE
+from cobotsafety.arm.motion_box import EE_MOTION_SHARE
 from cobotsafety.human.body import HumanCapsules
 from oracles import limitations as oracle
 from oracles.geometry import capsule_pair
@@ -434,7 +434,8 @@ def test_the_repulsion_is_paper_2_eq_18_along_the_separation():
     ``f = k_rep (d_o / (d - d_cr) - 1)`` (eq. 18), at most ``f_max``, away from the human; zero
     beyond ``d_cr + d_o``; a stop at ``d_cr``. The point's Jacobian: pinocchio's."""
     from compiled_arm import compiled_kinematics, robot
-    from cobotsafety.arm.step_kernel import field_velocity, unpack_robot
+    from cobotsafety.arm.potential_field import field_velocity
+    from cobotsafety.arm.step_kernel import unpack_robot
 
     model = robot("panda")
     unpacked = unpack_robot(model.robot_i, model.robot_f)
@@ -602,7 +603,8 @@ def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
     differentiated numerically; at mid-range every weight is 1 (paper 2's repulsion), and a
     joint near its limit moves less than in paper 2's (the others take over)."""
     from compiled_arm import compiled_kinematics, robot
-    from cobotsafety.arm.step_kernel import field_push, limit_scale, unpack_robot, weighted_least_norm
+    from cobotsafety.arm.potential_field import field_push, limit_scale, weighted_least_norm
+    from cobotsafety.arm.step_kernel import unpack_robot
 
     model = robot("iiwa")
     unpacked = unpack_robot(model.robot_i, model.robot_f)

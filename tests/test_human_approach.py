@@ -210,7 +210,7 @@ def test_the_evasion_does_not_wedge_the_arm_against_its_joint_limits():
     works. Paper 2's repulsion, unweighted, swung the evading arm around its base onto four
     joint limits (a1, a2, a4, a7); when the person had gone the task's hand command was blocked
     by them and the arm never finished (stopped from 27 s on). Weighted as Chan and Dubey's
-    (joints near their limits spared, ``step_kernel.limit_scale``) it finishes."""
+    (joints near their limits spared, ``potential_field.limit_scale``) it finishes."""
     run = run_approach("anticipative", loaded=load_scenario("reach-over"), duration_s=50.0)
     assert run.metrics.completion_time_s is not None
     assert run.metrics.min_distance_true_m > 0.0  # and never touches the person

@@ -27,7 +27,7 @@ class FilterSettings:
       (``MotionLimits.ee_speed_m_s``); the demo's gizmo asks for 0.25 (ISO/TS 15066's
       reduced speed suggestion for collaborative operation), the filter never more than this for
       a command; a retreat from a person walking at the arm may exceed it (the cap is planned and
-      gives way to safety; the anticipative arm's cap is then ``step_kernel.EE_MOTION_SHARE``
+      gives way to safety; the anticipative arm's cap is then ``motion_box.EE_MOTION_SHARE``
       (0.9) of the robot's own ``ee_speed_m_s`` when that is more), never the robot's own
       ``ee_speed_m_s``.
     * ``activation_m`` 0.15: metric limitations (zones, table, reach) farther than this do not

@@ -187,7 +187,7 @@ def filter_rows(q0, B, N, b, ramp, group, count, J, speed_cap, speed_limit, ee_p
     ``ee_prev`` (3,): the hand's previous velocity seen through ``J``; ``lead`` (3,) per axis,
     ``|a| / (2 j dt) + 1`` from the hand's previous acceleration ``a`` and its jerk limit ``j``:
     an axis accelerating at ``a'`` gains ``a' |a'| / 2j + a' dt / 2`` while its acceleration
-    ramps down in steps of ``dt`` (``step_kernel.ramp_acceleration``'s ramp), at most
+    ramps down in steps of ``dt`` (``motion_box.ramp_acceleration``'s ramp), at most
     ``lead a' dt`` since ``|a'| <= |a| + j dt``. So the hand turning at the cap does not build an
     acceleration it can only shed beyond it (the xArm 7's 50 m/s^2 and 100 m/s^3 took a turning
     hand from the 0.5 m/s cap to its own 1 m/s limit). ``lead`` 0: the plain cap.

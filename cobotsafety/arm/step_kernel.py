@@ -40,31 +40,32 @@ The step:
    limits); ``reactive`` is paper 2's potential field at the human's closest point, projected
    onto the other limitations (it slides off them as the anticipative filter does); ``off``
    keeps only the robot's own speed, acceleration and jerk limits;
-4. integration (``pin.integrate``'s arithmetic) and the safety net: a step that would cross a
-   limitation clear before it (the rows are first-order on curved limitations), or deepen one
-   already violated, is scaled down by bisection; only limitations the step can reach are
-   re-checked (every distance is 1-Lipschitz in the arm's points, which move at most
-   ``lever * sum |dq|``);
+4. integration (``pin.integrate``'s arithmetic) and the safety net (``safety_net``): a step
+   that would cross a limitation clear before it (the rows are first-order on curved
+   limitations), or deepen one already violated, is scaled down by bisection; only limitations
+   the step can reach are re-checked (every distance is 1-Lipschitz in the arm's points, which
+   move at most ``lever * sum |dq|``);
 5. the new kinematics and the human's minimum distance with its witness points.
 """
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import arm_stop_time, positive_root, row_capacity, safe_speed, stop_time
+from cobotsafety.arm.braking import arm_stop_time
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
                                           LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY, SPEED_CUTS, VELOCITY,
                                           filter_rows)
-from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3, point_jacobian_row
+from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3
+from cobotsafety.arm.limitation_bounds import limitation_bounds
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
+from cobotsafety.arm.motion_box import EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN, motion_box, ramp_acceleration
+from cobotsafety.arm.potential_field import field_push, field_velocity, limit_scale, weighted_least_norm
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
-from cobotsafety.arm.task import damped_least_squares, null_basis, task_mapping
+from cobotsafety.arm.task import null_basis, task_mapping
 from cobotsafety.small_linalg import matmul, matmul_nt, matvec
 
 ANTICIPATIVE, STOP, REACTIVE, OFF = 0, 1, 2, 3
@@ -85,18 +86,6 @@ STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
 OWNER_VELOCITY, OWNER_MOTION, OWNER_SPEED, OWNER_EE_MOTION = -1, -2, -3, -4
 CROSSING_TOLERANCE_M = 1e-9
-#: The share of the end-effector's acceleration and jerk limits the filter plans with.
-EE_MOTION_SHARE = 0.9
-#: Its share per axis: the filter bounds the end-effector's acceleration and jerk per axis
-#: (a box), each axis at ``1 / sqrt(3)`` of the share so that the norm holds; braking along any
-#: direction is planned within that box.
-EE_AXIS_SHARE = EE_MOTION_SHARE / math.sqrt(3.0)
-#: The motion box is planned this far inside the acceleration and jerk limits, so that the
-#: solver's tolerance (1e-9 on rows scaled to unit length) never pushes a command past them.
-MOTION_MARGIN = 1.0 - 1e-4
-#: The least share of a row's deceleration a brake keeps when the limitation's curvature pulls
-#: the arm toward it (beyond it, the sliding is faster than the limits can hold on that curve).
-PULL_FLOOR = 0.25
 
 
 @numba.njit(cache=True)
@@ -209,216 +198,6 @@ def previous_kinematics(kin_f, q, offsets, nj, nv, n_caps):  # pragma: no cover 
     return found, oR, op, p_ee, R_ee, J6, p0, p1
 
 
-@numba.njit(cache=True)
-def field_push(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support, critical_m,
-               influence_m, k_rep_m_s, max_repulsion_m_s):  # pragma: no cover - compiled
-    """Paper 2's repulsion (eqs. 18-21, errata 5-6) as a task: ``(J_cp (3, nv), f s (3,))``, with
-    ``f = k_rep (d_o / (d - d_cr) - 1)`` (at most ``max_repulsion_m_s``) within ``d_cr + d_o`` of
-    the human, ``s`` the unit vector from the human's closest point to the robot's, ``J_cp`` the
-    Jacobian of the robot's closest point; a zero push outside (or without a human). The caller
-    handles ``d <= d_cr``."""
-    J_cp = np.zeros((3, nv))
-    if capsule < 0 or not np.isfinite(d_min) or d_min >= influence_m + critical_m or d_min <= critical_m:
-        return J_cp, np.zeros(3)
-    f = min(k_rep_m_s * (influence_m / (d_min - critical_m) - 1.0), max_repulsion_m_s)
-    if f <= 0.0:
-        return J_cp, np.zeros(3)
-    gap = p_robot - p_human
-    s = gap / max(np.sqrt(np.sum(gap * gap)), 1e-9)
-    e = np.zeros(3)
-    for r in range(3):
-        e[:] = 0.0
-        e[r] = 1.0
-        point_jacobian_row(e, p_robot, cap_joint[capsule], oR, op, axes, idx_v, support, J_cp[r])
-    return J_cp, f * s
-
-
-@numba.njit(cache=True)
-def weighted_least_norm(J_cp, push, damping, joint_scale):  # pragma: no cover - compiled
-    """The joint velocity (nv,) that gives ``push`` (3,) at the point of Jacobian ``J_cp``: the
-    weighted least norm ``D DLS(J_cp D, push)``, ``D = diag(joint_scale)`` (all ones: paper 2's
-    ``DLS(J_cp, push)``); zero for a zero push."""
-    nv = J_cp.shape[1]
-    if push[0] == 0.0 and push[1] == 0.0 and push[2] == 0.0:
-        return np.zeros(nv)
-    weighted = np.empty((3, nv))
-    for r in range(3):
-        for j in range(nv):
-            weighted[r, j] = J_cp[r, j] * joint_scale[j]
-    qdot = damped_least_squares(weighted, push, damping)
-    for j in range(nv):
-        qdot[j] *= joint_scale[j]
-    return qdot
-
-
-@numba.njit(cache=True)
-def limit_scale(q, lower, upper, limited, nv):  # pragma: no cover - compiled
-    """Chan and Dubey's weighted least norm ("A weighted least-norm solution based inverse
-    kinematic scheme for redundant manipulators", IEEE T-RA 1995) as column scales (nv,):
-    ``1 / sqrt(1 + |dH/dq_i|)``, ``H = sum (u - l)^2 / (4 (u - q)(q - l))`` the joint-limit
-    measure (1 at mid-range, growing without bound at a limit; unlimited joints 1)."""
-    scale = np.ones(nv)
-    for i in range(limited.shape[0]):
-        iq, iv = limited[i, 0], limited[i, 1]
-        span = upper[iq] - lower[iq]
-        to_upper, to_lower = max(upper[iq] - q[iq], 1e-6), max(q[iq] - lower[iq], 1e-6)
-        grad = span * span * (2.0 * q[iq] - upper[iq] - lower[iq]) / (4.0 * to_upper * to_upper * to_lower * to_lower)
-        scale[iv] = 1.0 / np.sqrt(1.0 + abs(grad))
-    return scale
-
-
-@numba.njit(cache=True)
-def field_velocity(J, v_att, d_min, capsule, p_robot, p_human, cap_joint, oR, op, axes, idx_v, support,
-                   critical_m, influence_m, k_rep_m_s, max_repulsion_m_s, damping):  # pragma: no cover - compiled
-    """Paper 2's potential field (eqs. 16-21, errata 5-6): ``(qdot (nv,), stopped)``.
-
-    ``qdot = DLS(J, v_att) + DLS(J_cp, f s)`` (``field_push``); at ``d <= d_cr`` the collision is unavoidable:
-    stop."""
-    nv = J.shape[1]
-    if np.isfinite(d_min) and d_min <= critical_m:
-        return np.zeros(nv), True
-    J_cp, push = field_push(d_min, capsule, p_robot, p_human, nv, cap_joint, oR, op, axes, idx_v, support,
-                            critical_m, influence_m, k_rep_m_s, max_repulsion_m_s)
-    return damped_least_squares(J, v_att, damping) + weighted_least_norm(J_cp, push, damping, np.ones(nv)), False
-
-
-@numba.njit(cache=True)
-def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0, qdot_prev, qddot_prev, ee_speed_prev,
-                      dt_s, acc, jerk, vel, ee_acc, ee_jerk, brake_share, buffer_m, buffer_rad, recovery_gain,
-                      width_m, width_rad, speed_cap, retreat_cap, ssm, ssm_params, plan, keep_plan, safety,
-                      keep_safety, recovering, ramp):  # pragma: no cover - compiled
-    """Each row's bounds ``b`` of ``a . qdot >= b``: the plan's (``brake_share`` of the motion
-    limits, paper 1's damped zone when a width is set) into ``plan``, and the safety's (the full
-    motion limits) into ``safety``; ``keep_*`` False for rows no velocity within the joints'
-    limits can break; ``recovering`` True for a safety bound that drifts out of a limitation
-    with nothing walking at it (a human's: the filter's ``RECOVERY`` rows), and ``ramp`` the
-    retreat it can grow to this step (its braking capacity). Returns the largest factor by
-    which a safety bound had to exceed the motion limits (1: none).
-
-    Outside the buffer: approach no faster than the arm can brake before the limitation from
-    its approach speed and acceleration now (``braking.safe_speed``: beyond reach, with the least
-    excess over the motion limits that still stops before it), with what the joints can give
-    along the row from their accelerations now (``braking.row_capacity``: a joint already at its
-    limit adds no jerk; at most the end-effector's limits for metric rows). The plan brakes as part
-    of the whole arm's stop (every joint's velocity scaled down together, as fast as the
-    bottleneck joint allows), so that budgets of rows binding at once are met by one braking;
-    a moving human's rows keep the capacity along their own normal (a retreat is not a stop).
-    Inside the buffer: drift out at ``recovery_gain`` times the intrusion (never deeper). A
-    person walking at the arm (``rate`` < 0, their approach speed ``v_h``): the plan retreats
-    as they come (their approach added to the arm's), but the safety bound is ISO/TS 15066's
-    separation (``S = v_h (T_r + T_s) + ...``): the arm's own approach no faster than it can
-    end within the gap less how far the person walks meanwhile (``braking.stop_time``), and
-    inside the buffer braking toward standstill at the full limits: the arm need not outrun a
-    person, it must be able to stop for them. With SSM the arm's own approach to a human
-    (rows with a finite ``separation`` [m], the capsules' distance) is also at most ISO/TS
-    15066's speed for that separation. A retreat never asks for more than the speed cap, from a
-    person walking at the arm no more than ``retreat_cap``. A
-    limitation whose curvature pulls the sliding arm toward it (``pull`` [m/s^2] > 0 at the
-    arm's velocity now: the extended reach) adds that pull to the approach's acceleration and
-    takes it from the deceleration the brake has along the row. The row's point's own drift
-    (``drift``: a turning link carries its points on a curve) is the curvature of the motion the
-    plan leaves ``1 - brake_share`` of the limits for; the safety bound, at the full limits,
-    counts it with the pull."""
-    nv = A.shape[1]
-    worst_factor = 1.0
-    stop_decel, stop_jerk = np.inf, np.inf
-    for j in range(nv):
-        if abs(qdot_prev[j]) > 1e-9:
-            stop_decel = min(stop_decel, acc[j] / abs(qdot_prev[j]))
-            stop_jerk = min(stop_jerk, jerk[j] / abs(qdot_prev[j]))
-    if ee_speed_prev > 1e-9:  # the hand stops with the arm: within its own box too (per axis)
-        stop_decel = min(stop_decel, EE_AXIS_SHARE * ee_acc / ee_speed_prev)
-        stop_jerk = min(stop_jerk, EE_AXIS_SHARE * ee_jerk / ee_speed_prev)
-    for i in range(count):
-        rate_now, rate_accel, decel, jerk_n, jerk_all, reach = row_capacity(A, i, qdot_prev, qddot_prev, acc, jerk,
-                                                                             vel)
-        own_speed, own_accel = -rate_now, -rate_accel
-        if rate[i] < 0.0:
-            # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
-            # time the arm's approach takes to end; with the ramp from the joints' state now that
-            # time jumps as joints reach their limits mid-brake, and the bound fell faster than
-            # the arm could follow (``test_a_person_faster_than_the_arm...``): their rows keep
-            # every joint's jerk, as before ``row_capacity``.
-            jerk_n = jerk_all
-        if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
-            decel = min(decel, EE_AXIS_SHARE * ee_acc)
-            jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
-        # What draws the arm toward the limitation at its speed now: part of its approach's
-        # acceleration, and held against by the brake while the arm slides on. The plan counts
-        # the limitation's curvature; the safety bound the row's point's drift as well.
-        plan_accel, plan_decel = own_accel, decel
-        if pull[i] > 0.0:
-            plan_accel += pull[i]
-            plan_decel = max(decel - pull[i], PULL_FLOOR * decel)
-        toward = max(pull[i] + drift[i], 0.0)
-        own_accel += toward
-        decel = max(decel - toward, PULL_FLOOR * decel)
-        keep_plan[i], keep_safety[i], recovering[i], ramp[i] = False, False, False, 0.0
-        plan[i], safety[i] = -np.inf, -np.inf
-        if decel <= 0.0 or jerk_n <= 0.0:
-            continue  # a row the joints cannot move: no half-space on the command
-        plan_jerk = jerk_n
-        if rate[i] == 0.0 and own_speed > 0.0:
-            plan_decel = min(plan_decel, own_speed * stop_decel)
-            plan_jerk = min(plan_jerk, own_speed * stop_jerk)
-        plan_decel *= brake_share
-        plan_jerk *= brake_share
-        gap = dist[i] - (buffer_rad if angular[i] else buffer_m)
-        human_closing = -min(rate[i], 0.0)
-        cap = 0.5 * reach if angular[i] else (retreat_cap if human_closing > 0.0 else speed_cap)
-        if gap <= 0.0:
-            plan_bound = -recovery_gain * gap + human_closing
-            # The approach speed after one step braking at the row's limits.
-            braked = own_speed + max(own_accel - jerk_n * dt_s, -decel) * dt_s
-            if human_closing > 0.0:  # inside a moving person's distance: brake to standstill at the limits
-                safety_bound = -max(braked, 0.0)
-            else:
-                # Out at ``recovery_gain`` times the intrusion; when the motion limits leave no
-                # room for that, the filter eases it to what the row's braking capacity lets the
-                # retreat grow to this step (``ramp``), then to approach nothing.
-                safety_bound = -recovery_gain * gap
-                recovering[i] = True
-                ramp[i] = -braked
-        else:
-            # (with a pull, the command's rate next step is ``a . qdot`` less it:
-            # the braking model starts from the rate the command gives and the pull on top)
-            speed_plan = own_speed - max(pull[i], 0.0) * dt_s + human_closing
-            speed_now = own_speed - toward * dt_s + human_closing
-            allowed, _ = safe_speed(gap, speed_plan, plan_accel, plan_decel, plan_jerk, dt_s, reach + human_closing)
-            plan_bound = human_closing - allowed
-            if allowed == np.inf:
-                safety_bound = -np.inf  # viable at full speed with less: with the full limits too
-            elif human_closing > 0.0:
-                # ISO/TS 15066's separation: the arm must be able to stand still before the
-                # person, still walking at it, reaches the limitation; it need not outrun them
-                # (the plan above still retreats as fast as they come, within the limits).
-                # The person walks on while the arm's approach along this row ends (from the
-                # fastest it may take next step, braking at the row's limits).
-                fastest_next = max(own_speed, 0.0) + decel * dt_s
-                room = gap - human_closing * stop_time(fastest_next, own_accel, decel, jerk_n, dt_s)
-                allowed, factor = safe_speed(room, own_speed, own_accel, decel, jerk_n, dt_s, reach)
-                worst_factor = max(worst_factor, factor)
-                safety_bound = -allowed
-            else:
-                allowed, factor = safe_speed(gap, speed_now, own_accel, decel, jerk_n, dt_s, reach + human_closing)
-                worst_factor = max(worst_factor, factor)
-                safety_bound = human_closing - allowed
-            width = width_rad if angular[i] else width_m
-            if width > 0.0 and gap < width:
-                desired = rate[i]
-                for j in range(nv):
-                    desired += A[i, j] * q0[j]
-                if desired < 0.0:
-                    plan_bound = max(plan_bound, gap / width * desired - min(rate[i], 0.0))
-        if ssm and np.isfinite(separation[i]):
-            limit = -approach_speed_kernel(separation[i], ssm_params)
-            plan_bound, safety_bound = max(plan_bound, limit), max(safety_bound, limit)
-        plan[i], safety[i] = min(plan_bound, cap), min(safety_bound, cap)
-        keep_plan[i] = plan[i] > -reach - 1e-12
-        keep_safety[i] = safety[i] > -reach - 1e-12
-    return worst_factor
-
-
 @numba.njit(cache=True, inline="always")
 def joint_row(N, i, j, side):  # pragma: no cover - compiled
     """Row ``i`` of ``N``: joint ``j``'s velocity from below (``side`` 0: +1) or above (1: -1),
@@ -429,39 +208,71 @@ def joint_row(N, i, j, side):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def ramp_acceleration(room, jerk, dt_s):  # pragma: no cover - compiled
-    """The largest acceleration toward a speed limit ``room`` [m/s or rad/s] away (> 0) from
-    which the acceleration can still ramp down to zero at ``jerk`` before the limit, in steps
-    of ``dt_s``: the root of ``a^2 / 2j + 1.5 a dt = room`` (``v' = v + a dt``, then the ramp's
-    ``a'^2 / 2j + a' dt / 2``)."""
-    return positive_root(jerk, 1.5 * dt_s, room)
-
-
-@numba.njit(cache=True)
-def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: no cover - compiled
-    """The velocities the next step may take [rad/s or m/s]: within ``acc dt`` of the previous
-    velocity and ``jerk dt^2`` of its extrapolation at the previous acceleration; when those
-    two do not meet (a step already gave up smoothness), the acceleration's alone. Toward the
-    speed limit ``vel`` the acceleration must still be able to ramp down to zero at the jerk
-    limit before reaching it: ``v' + a'^2 / 2j + a' dt / 2 <= vel`` (the steps of the ramp)."""
-    for j in range(qdot_prev.shape[0]):
-        a_step, j_step = MOTION_MARGIN * acc[j] * dt_s, MOTION_MARGIN * jerk[j] * dt_s * dt_s
-        a_lo, a_hi = qdot_prev[j] - a_step, qdot_prev[j] + a_step
-        centre = qdot_prev[j] + qddot_prev[j] * dt_s
-        j_lo, j_hi = centre - j_step, centre + j_step
-        lo[j], hi[j] = max(a_lo, j_lo), min(a_hi, j_hi)
-        if lo[j] > hi[j]:
-            lo[j], hi[j] = a_lo, a_hi
-        for side in range(2):
-            sign = 1.0 if side == 0 else -1.0
-            room = vel[j] - sign * qdot_prev[j]  # speed left before the limit on that side
-            if room <= 0.0:
+def safety_net(q, qdot, dt_s, strategy, robot_i, robot_f, scene_i, reals, hum, before, before_start,
+               qdot_prev):  # pragma: no cover - compiled
+    """The step integrated (``pin.integrate``'s arithmetic) and re-checked: a step that would cross a
+    limitation clear before it (``before``: each limitation's distances at ``q``, laid out by
+    ``before_start``), or deepen one already violated, is scaled down by bisection. Only limitations
+    the step can reach are re-checked (every distance is 1-Lipschitz in the arm's points, which move
+    at most ``lever * sum |dq|``). Returns ``(q_next, oR, op, p_ee, R_ee, J6, p0, p1, scale)``: the
+    configuration reached, ``kinematics`` there, and the share of ``qdot`` executed."""
+    (nq, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, limited, axes, placement_R, placement_t,
+     ee_R, ee_t, cap_p0l, cap_p1l, radius, lower, upper, vel, acc, jerk, ee_limits, lever) = unpack_robot(
+        robot_i, robot_f)
+    n_lim = scene_i.shape[0]
+    n_before = before.shape[0]
+    travel_sum, travel_max = 0.0, 0.0
+    for j in range(nv):
+        travel_sum += abs(qdot[j]) * dt_s
+        travel_max = max(travel_max, abs(qdot[j]) * dt_s)
+    reach_linear = lever * travel_sum + CROSSING_TOLERANCE_M
+    reach_angular = travel_max + CROSSING_TOLERANCE_M
+    checked = np.zeros(n_lim, dtype=np.bool_)
+    if strategy != OFF:
+        for con in range(n_lim):
+            start, stop = before_start[con], before_start[con + 1]
+            if stop > start:
+                part_min = before[start:stop].min()
+                checked[con] = part_min <= (reach_angular if scene_i[con, 0] == joint_range.KIND else reach_linear)
+    net_scale, low, high = 1.0, 0.0, 1.0
+    q_next = q.copy()
+    after = np.empty(n_before)
+    for attempt in range(27):
+        # attempt 0: the full step; 1..25: bisection on its scale; 26: the scale found.
+        scale = 1.0 if attempt == 0 else (low if attempt == 26 else 0.5 * (low + high))
+        integrate(q, qdot * scale * dt_s, jtype, idx_q, idx_v, q_next)
+        if strategy == OFF:  # the joints' own end stops
+            for i in range(limited.shape[0]):
+                iq = limited[i, 0]
+                q_next[iq] = min(max(q_next[iq], lower[iq]), upper[iq])
+        oR2, op2, p_ee2, R_ee2, J62, p02, p12 = kinematics(q_next, jtype, axes, parent, idx_q, idx_v, placement_R,
+                                                           placement_t, support, ee_joint, ee_R, ee_t, cap_joint,
+                                                           cap_p0l, cap_p1l, nv)
+        if attempt == 26:
+            net_scale = low
+            break
+        kin2 = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
+                limited, qdot_prev)
+        admissible = True
+        for con in range(n_lim):
+            if not checked[con]:
                 continue
-            a_max = ramp_acceleration(room, jerk[j], dt_s)
-            if side == 0:
-                hi[j] = max(min(hi[j], qdot_prev[j] + a_max * dt_s), lo[j])
-            else:
-                lo[j] = min(max(lo[j], qdot_prev[j] - a_max * dt_s), hi[j])
+            start, stop = before_start[con], before_start[con + 1]
+            kind_distances(scene_i[con, 0], reals[con], scene_i[con, 1], kin2, hum, after[start:stop])
+            for i in range(start, stop):
+                if after[i] < min(before[i], 0.0) - CROSSING_TOLERANCE_M:
+                    admissible = False
+                    break
+            if not admissible:
+                break
+        if attempt == 0:
+            if admissible:
+                break
+        elif admissible:
+            low = scale
+        else:
+            high = scale
+    return q_next, oR2, op2, p_ee2, R_ee2, J62, p02, p12, net_scale
 
 
 @numba.njit(cache=True)
@@ -779,57 +590,9 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
     # ---- 6. integrate and re-check --------------------------------------------------------------
-    travel_sum, travel_max = 0.0, 0.0
-    for j in range(nv):
-        travel_sum += abs(qdot[j]) * dt_s
-        travel_max = max(travel_max, abs(qdot[j]) * dt_s)
-    reach_linear = lever * travel_sum + CROSSING_TOLERANCE_M
-    reach_angular = travel_max + CROSSING_TOLERANCE_M
-    checked = np.zeros(n_lim, dtype=np.bool_)
-    if strategy != OFF:
-        for con in range(n_lim):
-            start, stop = before_start[con], before_start[con + 1]
-            if stop > start:
-                part_min = before[start:stop].min()
-                checked[con] = part_min <= (reach_angular if scene_i[con, 0] == joint_range.KIND else reach_linear)
-    net_scale, low, high = 1.0, 0.0, 1.0
-    q_next = q.copy()
-    after = np.empty(n_before)
-    for attempt in range(27):
-        # attempt 0: the full step; 1..25: bisection on its scale; 26: the scale found.
-        scale = 1.0 if attempt == 0 else (low if attempt == 26 else 0.5 * (low + high))
-        integrate(q, qdot * scale * dt_s, jtype, idx_q, idx_v, q_next)
-        if strategy == OFF:  # the joints' own end stops
-            for i in range(limited.shape[0]):
-                iq = limited[i, 0]
-                q_next[iq] = min(max(q_next[iq], lower[iq]), upper[iq])
-        oR2, op2, p_ee2, R_ee2, J62, p02, p12 = kinematics(q_next, jtype, axes, parent, idx_q, idx_v, placement_R,
-                                                           placement_t, support, ee_joint, ee_R, ee_t, cap_joint,
-                                                           cap_p0l, cap_p1l, nv)
-        if attempt == 26:
-            net_scale = low
-            break
-        kin2 = (q_next, p_ee2, J62, oR2, op2, p02, p12, radius, cap_joint, axes, idx_v, support, lower, upper,
-                limited, qdot_prev)
-        admissible = True
-        for con in range(n_lim):
-            if not checked[con]:
-                continue
-            start, stop = before_start[con], before_start[con + 1]
-            kind_distances(scene_i[con, 0], reals[con], scene_i[con, 1], kin2, hum, after[start:stop])
-            for i in range(start, stop):
-                if after[i] < min(before[i], 0.0) - CROSSING_TOLERANCE_M:
-                    admissible = False
-                    break
-            if not admissible:
-                break
-        if attempt == 0:
-            if admissible:
-                break
-        elif admissible:
-            low = scale
-        else:
-            high = scale
+    q_next, oR2, op2, p_ee2, R_ee2, J62, p02, p12, net_scale = safety_net(q, qdot, dt_s, strategy, robot_i, robot_f,
+                                                                       scene_i, reals, hum, before, before_start,
+                                                                       qdot_prev)
     qdot_exec = qdot * net_scale
     # ---- 7. outputs and the next step's state ---------------------------------------------------
     v_executed = (p_ee2 - p_ee) / dt_s

@@ -11,6 +11,7 @@ are the filter's own (``limitation_bounds``' arguments, captured), the buffers 1
 import os, sys, pickle, numpy as np
 assert os.environ.get("NUMBA_DISABLE_JIT") == "1"
 from cobotsafety.arm import step_kernel as sk
+from cobotsafety.arm.motion_box import EE_AXIS_SHARE
 robot, dt, run_name, k0, k1, every = sys.argv[1], float(sys.argv[2]), sys.argv[3], int(sys.argv[4]), int(sys.argv[5]), int(sys.argv[6])
 k = [0]; snaps = {}
 orig_lb = sk.limitation_bounds
@@ -31,7 +32,7 @@ from cobotsafety.experiments import limit_runs as lr
 c = ArmController(robot)
 lim = c.model.limits
 acc, jerk = np.asarray(lim.acceleration_rad_s2), np.asarray(lim.jerk_rad_s3)
-ee_box = sk.EE_AXIS_SHARE * lim.ee_acceleration_m_s2
+ee_box = EE_AXIS_SHARE * lim.ee_acceleration_m_s2
 gen = {"drag-turns": lr.drag_turns, "drag-release": lr.drag_release}[run_name](c, dt)
 sos = {}
 for v in gen:
