@@ -12,7 +12,6 @@ import logging
 from functools import lru_cache
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from cobotsafety.arm.controller import MAX_PERIOD_S, MAX_STEP_S, ArmController, StepError
@@ -109,7 +108,7 @@ def teleoperation_run(robot: str, method: str = "anticipative"):
 def ratios_of(robot: str):
     controller, _, q_path, p_path, _, _ = teleoperation_run(robot)
     model = controller.model
-    ratios = motion_ratios(q_path, TELEOP_DT_S, model.limits, lambda a, b: pin.difference(model.model, a, b), p_path)
+    ratios = motion_ratios(q_path, TELEOP_DT_S, model.limits, model.difference, p_path)
     words = (f"{robot}: joint velocity {ratios.max_joint_velocity_ratio:.4f} of its limit at (step, joint) "
              f"{ratios.max_joint_velocity_at}, acceleration {ratios.max_joint_acceleration_ratio:.4f} at "
              f"{ratios.max_joint_acceleration_at}, jerk {ratios.max_joint_jerk_ratio:.4f} at {ratios.max_joint_jerk_at}; "
@@ -191,7 +190,7 @@ def test_a_drag_past_the_speed_cap_arrives_at_the_cap_with_its_acceleration_ramp
         assert max(commanded) >= 0.95 * cap, robot  # it got there
         assert max(commanded) <= 1.01 * cap, robot
         model = controller.model
-        ratios = motion_ratios(np.array(qs), 0.002, limits, lambda a, b: pin.difference(model.model, a, b), np.array(ps))
+        ratios = motion_ratios(np.array(qs), 0.002, limits, model.difference, np.array(ps))
         assert ratios.max_ee_jerk_m_s3 <= limits.ee_jerk_m_s3 and controller.smoothness_steps == 0, robot
 
 

@@ -175,7 +175,7 @@ def test_the_move_home_of_an_arm_with_continuous_joints_goes_the_joint_way_home(
     home, limits = model.home_q, model.limits.velocity_rad_s
     with pytest.raises(ValueError, match="needs a difference"):
         PostureRecovery(home, limits)
-    recovery = PostureRecovery(home, limits, difference=lambda a, b: pin.difference(model.model, a, b))
+    recovery = PostureRecovery(home, limits, difference=model.difference)
     away = np.array([0.3, -0.2, 0.25, -3.0, 0.1, 3.0])  # joints 1, 4, 6 continuous: 3 rad, not 2 pi - 3
     q = pin.integrate(model.model, home, away)
     recovery.recovering = True
