@@ -154,6 +154,47 @@ def test_an_escape_that_needed_the_arm_to_move_before_the_person_was_seen_is_not
     assert late.window_s[0] == pytest.approx(detected) and not late.exists
 
 
+class _LungingHuman(_ApproachingHuman):
+    """A torso at ``gap(t)`` [m] from a point along +y: ``start_gap_m`` until ``onset_s``, then
+    closing at ``speed_m_s`` to ``stop_gap_m`` short of it; with ``first`` = (gap, speed), an
+    earlier approach from that gap down to ``start_gap_m``, from 0 s, paused until ``onset_s``."""
+
+    def __init__(self, target, start_gap_m, stop_gap_m, speed_m_s, onset_s, first=None):
+        super().__init__(target, start_gap_m, stop_gap_m, speed_m_s)
+        gap = np.clip(start_gap_m - speed_m_s * (self.t_s - onset_s), stop_gap_m, start_gap_m)
+        if first is not None:
+            gap = np.where(self.t_s < onset_s, np.maximum(first[0] - first[1] * self.t_s, start_gap_m), gap)
+        centre = np.asarray(target) + np.outer(gap, [0.0, 1.0, 0.0])
+        self.p0_b_m = (centre + [0, 0, -0.3])[:, None]
+        self.p1_b_m = (centre + [0, 0, 0.3])[:, None]
+
+
+def test_an_escape_that_needed_the_arm_to_move_before_the_persons_approach_began_is_not_one_after_it():
+    """A person standing 0.55 m from the resting iiwa's hand who lunges at it at 2 m/s from 1.2 s,
+    stopping 0.1 m from its axis (at 1.425 s): their final approach begins at 1.2 s (the arm held
+    where it is at the closest moment); an arm that moved off a second before the closest moment
+    keeps the critical distance, one that starts when the lunge does cannot. A person who only
+    stands has no approach (None), and one closing from the start began before the window."""
+    from cobotsafety.tools.campaign.escape import ONSET_STEP_S, _Kinematics, approach_onset_s
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_LungingHuman(p_ee, 0.55, 0.1, 2.0, 1.2))
+    t = np.arange(0.01, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    onset = approach_onset_s(kin, q_home, truth, 0.0, 0.3, 1.5)
+    assert onset == pytest.approx(1.2, abs=ONSET_STEP_S + 1e-9)
+    assert escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin).exists
+    assert not escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin, earliest_s=onset).exists
+    standing = _truth(_LungingHuman(p_ee, 0.55, 0.1, 2.0, 9.0))
+    assert approach_onset_s(kin, q_home, standing, 0.0, 0.3, 1.5) is None
+    walking = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))  # closing from 0 s to 1.125 s
+    assert approach_onset_s(kin, q_home, walking, 0.0, 0.3, 1.0) == pytest.approx(0.3)
+    # The last stretch counts: an earlier approach (0.9 -> 0.55 m at 0.8 m/s, to 0.44 s), then a pause.
+    paused = _truth(_LungingHuman(p_ee, 0.55, 0.1, 2.0, 1.2, first=(0.9, 0.8)))
+    assert approach_onset_s(kin, q_home, paused, 0.0, 0.0, 1.5) == pytest.approx(1.2, abs=ONSET_STEP_S + 1e-9)
+
+
 def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
     velocity and acceleration limits, its hand within the end-effector's speed and acceleration
@@ -222,6 +263,22 @@ def test_an_escape_keeps_the_hand_within_its_own_limits():
     free = escape_exists("iiwa", held, t, 0.67, truth, 0.0, critical_m=0.1, kinematics=kin)
     assert free.exists and not limited.exists
     assert limited.best_min_distance_m < 0.095
+
+
+def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_approach():
+    """One drawn person the anticipative iiwa breaches for (seed 0, person 124: walks in, stops,
+    reaches at the arm): the searches from later starts are asked only when the earlier found an
+    escape, so each answer implies the one before; the approach began after the person was
+    first seen, before the closest moment, and the search from it was asked (a bool)."""
+    from cobotsafety.tools.campaign.person_run import run_person
+
+    r = run_person("iiwa", 124, 0, ("anticipative",))[0]
+    assert r["breach"] and r["escape_exists"] and r["escape_after_detection"]
+    assert 0.0 < r["approach_onset_before_closest_s"] < r["detected_before_closest_s"]
+    assert isinstance(r["escape_after_approach_onset"], bool)
+    nobody = run_person("iiwa", 0, 0, ("anticipative",))[0]  # walks past: no breach, nothing asked
+    assert not nobody["breach"]
+    assert nobody["escape_after_approach_onset"] is None and nobody["approach_onset_before_closest_s"] is None
 
 
 @pytest.fixture(scope="module")

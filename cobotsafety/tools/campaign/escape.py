@@ -24,7 +24,10 @@ search is local: an escape found is certain (``Escape.witness_rad_s``, its knot 
 stated choice: the controller could have started earlier, so "no escape in the window" does not
 prove none existed before it. ``earliest_s`` starts the window later (never earlier): the
 campaign asks again from the moment the controller first saw the person, for the breaches whose
-escape needed the arm to move before anyone was seen (perception's share, not the controller's).
+escape needed the arm to move before anyone was seen (perception's share, not the controller's),
+and from the moment the person's final approach began (``approach_onset_s``, from the truth), for
+those whose escape needed the arm to move before anything in the person's motion announced it
+(prediction's share: a controller reacting to the person, however well it sees them, could not).
 """
 
 from __future__ import annotations
@@ -45,6 +48,12 @@ SAMPLES = 16
 #: The end-effector's speed is checked at every quarter of a knot interval, its acceleration
 #: over each quarter (from the logged start).
 HAND_POINTS = 4 * KNOTS
+#: A person's final approach (``approach_onset_s``) is the last unbroken stretch before the
+#: closest moment in which they close on the arm faster than this [m/s]: below the campaign's
+#: slowest walk (0.5 m/s), above a standing person's sway (chosen before any onset was measured).
+ONSET_CLOSING_M_S = 0.3
+#: The spacing [s] of the true distances ``approach_onset_s`` differentiates.
+ONSET_STEP_S = 0.01
 
 
 @dataclass(frozen=True)
@@ -290,3 +299,23 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
             best, start = value, x
     witness = None if best == -np.inf else start.reshape(KNOTS, n)
     return Escape(bool(best >= critical_m), best, (t0, t1), witness)
+
+
+def approach_onset_s(kin: _Kinematics, q_closest: np.ndarray, truth: TruthHuman, truth_offset_s: float,
+                     t_from_s: float, t_closest_s: float) -> float | None:
+    """When the person's final approach began [s, run clock]: the start of the last unbroken
+    stretch before ``t_closest_s`` in which the true human alone (the arm held at its pose at the
+    closest moment, ``q_closest``) closed on the arm faster than ``ONSET_CLOSING_M_S``, or
+    ``t_from_s`` when the stretch began before it; None when they never closed that fast from
+    ``t_from_s`` on (the arm came to them)."""
+    p0, p1, r = (np.array(a, dtype=float) for a in kin.capsules(np.asarray(q_closest, dtype=float)))
+    t = np.arange(t_from_s, t_closest_s + 0.5 * ONSET_STEP_S, ONSET_STEP_S)
+    if len(t) < 2:
+        return None
+    d = np.array([truth.distance_m(p0, p1, r, truth_offset_s + x) for x in t])
+    closing = -np.diff(d) / np.diff(t)  # per interval [t_k, t_k+1]
+    fast = np.flatnonzero(closing > ONSET_CLOSING_M_S)
+    if not fast.size:
+        return None
+    slow = np.flatnonzero(closing[: fast[-1]] <= ONSET_CLOSING_M_S)
+    return float(t[slow[-1] + 1]) if slow.size else float(t[0])

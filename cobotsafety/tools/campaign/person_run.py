@@ -26,7 +26,8 @@ from cobotsafety.experiments import approach_settings as settings
 TIMEOUT_EXTRA_S = 30.0
 RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_distance_m", "seen_min_distance_m",
                "estimate_error_at_closest_m", "closest_time_s", "breach", "escape_exists",
-               "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s", "completed",
+               "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s",
+               "escape_after_approach_onset", "approach_onset_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
                "stopped_time_s", "protective_stop_time_s", "posture_recoveries")
 
@@ -92,7 +93,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
     from cobotsafety.experiments.approach_truth import TruthHuman
     from cobotsafety.experiments.human_approach import HumanSeries, episode_metrics, run_episode
     from cobotsafety.human.replay import Replay
-    from cobotsafety.tools.campaign.escape import _Kinematics, escape_exists
+    from cobotsafety.tools.campaign.escape import _Kinematics, approach_onset_s, escape_exists
     from cobotsafety.tools.generate_recording import generate
 
     scene, drawn, generator_seed = draw_scene(index, seed)
@@ -110,7 +111,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
         m = episode_metrics(log, dt_s, controller)
         true_min = m.min_distance_true_m
         breach = bool(true_min is not None and true_min < settings.CRITICAL_M)
-        escape = best = after = detected = None
+        escape = best = after = detected = after_onset = onset = None
         if breach and escape_check:
             q_log, t_log = np.array(log.q_rad), np.array(log.t_s)
             kin = _Kinematics(robot)  # one robot model for both searches
@@ -120,10 +121,21 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             detected_s = detection_time_s(t_log, np.array(log.seen_m), m.closest_time_s, dt_s)
             detected = None if detected_s is None else round(m.closest_time_s - detected_s, 4)
             after = escape
+            after_start = found.window_s[0]
             if escape and (detected_s is None or detected_s > found.window_s[0]):
                 after = detected_s is not None and escape_exists(
                     robot, q_log, t_log, m.closest_time_s, truth, replay.start_s, settings.CRITICAL_M,
                     kinematics=kin, earliest_s=detected_s).exists
+                after_start = detected_s
+            after_onset = after
+            if after:  # from the start of the person's final approach, when that came later
+                k_closest = int(np.clip(np.searchsorted(t_log, m.closest_time_s - 0.5 * dt_s), 0, len(t_log) - 1))
+                onset_s = approach_onset_s(kin, q_log[k_closest], truth, replay.start_s, after_start,
+                                           m.closest_time_s)
+                onset = None if onset_s is None else round(m.closest_time_s - onset_s, 4)
+                if onset_s is not None and onset_s > after_start:
+                    after_onset = escape_exists(robot, q_log, t_log, m.closest_time_s, truth, replay.start_s,
+                                                settings.CRITICAL_M, kinematics=kin, earliest_s=onset_s).exists
         completed = m.completion_time_s is not None
         results.append({
             "robot": robot, "controller": name, "person": index, "seed": seed, "drawn": drawn,
@@ -133,6 +145,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "closest_time_s": None if m.closest_time_s is None else round(m.closest_time_s, 4),
             "breach": breach, "escape_exists": escape, "escape_best_min_distance_m": best,
             "escape_after_detection": after, "detected_before_closest_s": detected,
+            "escape_after_approach_onset": after_onset, "approach_onset_before_closest_s": onset,
             "completed": completed,
             "completion_time_s": round(m.completion_time_s, 4) if completed else None,
             "time_lost_s": round(m.completion_time_s - nominal, 4) if completed else None,

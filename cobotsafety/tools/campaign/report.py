@@ -7,7 +7,10 @@ the beta quantile; 0 of N gives 1 - 0.05^(1/N), about 3/N). A breach *with an es
 offline search (``escape.escape_exists``) found a motion keeping the critical distance from
 ``LOOKBACK_S`` before the closest moment; *after detection*: also from the moment the controller
 first saw the person without a break up to the closest moment (the rest needed the arm to move
-before anyone was seen: the sensors' share, not the controller's). *People with a posture
+before anyone was seen: the sensors' share, not the controller's); *after the approach began*:
+also from the start of the person's final approach (``escape.approach_onset_s``, from the truth;
+the rest needed the arm to move before the person's motion announced it: prediction's share, out
+of reach of a controller that reacts to what it sees). *People with a posture
 recovery*: whose task stalled at joint limits and moved home (``control.recovery``).
 """
 
@@ -19,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_95", "breaches_with_escape",
-               "breaches_with_escape_after_detection",
+               "breaches_with_escape_after_detection", "breaches_with_escape_after_approach_onset",
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
                "max_joint_acceleration_ratio", "people_with_posture_recovery")
 
@@ -50,6 +53,8 @@ def summarise(results: list[dict]) -> list[dict]:
             "breach_rate_upper_95": round(clopper_pearson_upper(breaches, len(rows)), 6),
             "breaches_with_escape": sum(r["escape_exists"] is True for r in rows),
             "breaches_with_escape_after_detection": sum(r.get("escape_after_detection") is True for r in rows),
+            "breaches_with_escape_after_approach_onset": sum(r.get("escape_after_approach_onset") is True
+                                                             for r in rows),
             "median_true_min_distance_m": round(float(np.median(true)), 4) if true.size else None,
             "p05_true_min_distance_m": round(float(np.percentile(true, 5)), 4) if true.size else None,
             "completion_rate": round(sum(bool(r["completed"]) for r in rows) / len(rows), 4),
@@ -76,14 +81,15 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              f"Critical distance {settings.CRITICAL_M:.3f} m (a breach: the true separation below it); "
              f"settings: {json.dumps(settings.as_dict())}.", "",
              "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | of which after detection | "
+             "of which after the approach began | "
              "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
              "posture moves home |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
                      f"{s['breach_rate_upper_95']:.4f} | {s['breaches_with_escape']} | "
-                     f"{s['breaches_with_escape_after_detection']} | "
+                     f"{s['breaches_with_escape_after_detection']} | {s['breaches_with_escape_after_approach_onset']} | "
                      f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
                      f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_with_posture_recovery']} |")
