@@ -281,6 +281,27 @@ def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_app
     assert nobody["escape_after_approach_onset"] is None and nobody["approach_onset_before_closest_s"] is None
 
 
+def test_the_summary_counts_what_each_person_gave():
+    """``summarise`` over hand-made results: the escapes nest (window, detection, approach), a
+    None (not asked) is not a yes, and a run counts over the acceleration limit only above
+    ``OVER_LIMIT`` (a kept run's 0.9999 / 1.0000 is not)."""
+    from cobotsafety.tools.campaign.report import OVER_LIMIT, summarise
+
+    def person(i, true_m, escape=None, detection=None, onset=None, ratio=0.9999):
+        return {"robot": "iiwa", "controller": "anticipative", "person": i, "true_min_distance_m": true_m,
+                "breach": true_m < 0.3, "escape_exists": escape, "escape_after_detection": detection,
+                "escape_after_approach_onset": onset, "completed": True, "time_lost_s": 1.0,
+                "max_joint_acceleration_ratio": ratio, "posture_recoveries": 0}
+
+    rows = [person(0, 0.5), person(1, 0.1, True, True, True, 40.0), person(2, 0.2, True, True, False, 1.0),
+            person(3, 0.25, True, False, False, OVER_LIMIT + 1e-6), person(4, 0.05, False, False, False),
+            person(5, 0.6, ratio=OVER_LIMIT)]
+    (s,) = summarise(rows)
+    assert (s["people"], s["breaches"], s["breaches_with_escape"]) == (6, 4, 3)
+    assert (s["breaches_with_escape_after_detection"], s["breaches_with_escape_after_approach_onset"]) == (2, 1)
+    assert s["people_over_acceleration_limit"] == 2 and s["max_joint_acceleration_ratio"] == 40.0
+
+
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory):
     out = tmp_path_factory.mktemp("campaign")

@@ -11,7 +11,11 @@ before anyone was seen: the sensors' share, not the controller's); *after the ap
 also from the start of the person's final approach (``escape.approach_onset_s``, from the truth;
 the rest needed the arm to move before the person's motion announced it: prediction's share, out
 of reach of a controller that reacts to what it sees). *People with a posture
-recovery*: whose task stalled at joint limits and moved home (``control.recovery``).
+recovery*: whose task stalled at joint limits and moved home (``control.recovery``). *People over
+the acceleration limit*: whose run commanded a joint acceleration above the robot's limit at
+least once (``max_joint_acceleration_ratio`` above ``OVER_LIMIT``): steps where safety won over
+smoothness, a motion a real arm would not follow (libfranka's and KUKA's controllers stop the
+robot on it), so the distances of those runs are of an arm that did what no real one could.
 """
 
 from __future__ import annotations
@@ -24,7 +28,10 @@ import numpy as np
 REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_95", "breaches_with_escape",
                "breaches_with_escape_after_detection", "breaches_with_escape_after_approach_onset",
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
-               "max_joint_acceleration_ratio", "people_with_posture_recovery")
+               "max_joint_acceleration_ratio", "people_over_acceleration_limit", "people_with_posture_recovery")
+#: A run's largest joint acceleration ratio counts as over the limit above this (the filter plans
+#: within ``MOTION_MARGIN`` of the limits; finite differences of a kept run give at most 1.0000).
+OVER_LIMIT = 1.001
 
 
 def clopper_pearson_upper(breaches: int, people: int, confidence: float = 0.95) -> float:
@@ -60,6 +67,7 @@ def summarise(results: list[dict]) -> list[dict]:
             "completion_rate": round(sum(bool(r["completed"]) for r in rows) / len(rows), 4),
             "median_time_lost_s": round(float(np.median(lost)), 4) if lost.size else None,
             "max_joint_acceleration_ratio": round(max(r["max_joint_acceleration_ratio"] for r in rows), 4),
+            "people_over_acceleration_limit": sum(r["max_joint_acceleration_ratio"] > OVER_LIMIT for r in rows),
             "people_with_posture_recovery": sum(r.get("posture_recoveries", 0) > 0 for r in rows),
         })
     return out
@@ -83,8 +91,8 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | of which after detection | "
              "of which after the approach began | "
              "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
-             "posture moves home |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "people over the accel limit | posture moves home |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
@@ -92,7 +100,8 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{s['breaches_with_escape_after_detection']} | {s['breaches_with_escape_after_approach_onset']} | "
                      f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
-                     f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_with_posture_recovery']} |")
+                     f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_over_acceleration_limit']} | "
+                     f"{s['people_with_posture_recovery']} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]
     by_kind: dict[tuple, list[int]] = {}
     for r in results:
