@@ -51,11 +51,14 @@ class _ApproachingHuman:
 
     def __init__(self, target, start_gap_m, stop_gap_m, speed_m_s, radius_m=0.15):
         self.t_s = np.arange(0.0, 4.0, 0.02)
-        gap = np.maximum(start_gap_m - speed_m_s * self.t_s, stop_gap_m)
+        self.radius_m = np.array([radius_m])
+        self._place(target, np.maximum(start_gap_m - speed_m_s * self.t_s, stop_gap_m))
+
+    def _place(self, target, gap):
+        """The torso (0.6 m tall) at ``gap`` [m] (per time) from ``target`` along +y."""
         centre = np.asarray(target) + np.outer(gap, [0.0, 1.0, 0.0])
         self.p0_b_m = (centre + [0, 0, -0.3])[:, None]
         self.p1_b_m = (centre + [0, 0, 0.3])[:, None]
-        self.radius_m = np.array([radius_m])
 
 
 def _truth(human):
@@ -164,9 +167,7 @@ class _LungingHuman(_ApproachingHuman):
         gap = np.clip(start_gap_m - speed_m_s * (self.t_s - onset_s), stop_gap_m, start_gap_m)
         if first is not None:
             gap = np.where(self.t_s < onset_s, np.maximum(first[0] - first[1] * self.t_s, start_gap_m), gap)
-        centre = np.asarray(target) + np.outer(gap, [0.0, 1.0, 0.0])
-        self.p0_b_m = (centre + [0, 0, -0.3])[:, None]
-        self.p1_b_m = (centre + [0, 0, 0.3])[:, None]
+        self._place(target, gap)
 
 
 def test_an_escape_that_needed_the_arm_to_move_before_the_persons_approach_began_is_not_one_after_it():

@@ -73,11 +73,16 @@ def draw_scene(index: int, seed: int):
     return scene, drawn, int(rng.integers(2**31 - 1))
 
 
+def step_at(t_s: np.ndarray, time_s: float, dt_s: float) -> int:
+    """The index of the step (its end in ``t_s``, steps ``dt_s`` apart) holding ``time_s``."""
+    return int(np.clip(np.searchsorted(t_s, time_s - 0.5 * dt_s), 0, len(t_s) - 1))
+
+
 def detection_time_s(t_s: np.ndarray, seen_m: np.ndarray, closest_s: float, dt_s: float) -> float | None:
     """When the controller began to see someone without a break up to the closest moment [s]
     (the start of the first step of that stretch; ``seen_m`` is inf when it saw nobody, ``t_s``
     each step's end), or None when it saw nobody at the closest moment."""
-    k = int(np.clip(np.searchsorted(t_s, closest_s - 0.5 * dt_s), 0, len(t_s) - 1))
+    k = step_at(t_s, closest_s, dt_s)
     if not np.isfinite(seen_m[k]):
         return None
     unseen = np.flatnonzero(~np.isfinite(seen_m[:k + 1]))
@@ -129,9 +134,8 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
                 after_start = detected_s
             after_onset = after
             if after:  # from the start of the person's final approach, when that came later
-                k_closest = int(np.clip(np.searchsorted(t_log, m.closest_time_s - 0.5 * dt_s), 0, len(t_log) - 1))
-                onset_s = approach_onset_s(kin, q_log[k_closest], truth, replay.start_s, after_start,
-                                           m.closest_time_s)
+                q_closest = q_log[step_at(t_log, m.closest_time_s, dt_s)]
+                onset_s = approach_onset_s(kin, q_closest, truth, replay.start_s, after_start, m.closest_time_s)
                 onset = None if onset_s is None else round(m.closest_time_s - onset_s, 4)
                 if onset_s is not None and onset_s > after_start:
                     after_onset = escape_exists(robot, q_log, t_log, m.closest_time_s, truth, replay.start_s,
