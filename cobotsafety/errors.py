@@ -31,3 +31,7 @@ class PseudonymError(CobotSafetyError, ValueError):
 class TaskError(CobotSafetyError, RuntimeError):
     """A task that cannot be done on this robot (the campaign's pick-and-place path does not
     complete with nobody there); the message names robot and task."""
+
+
+class CampaignError(CobotSafetyError, ValueError):
+    """A campaign directory that holds another campaign's results; the message says which setting differs."""

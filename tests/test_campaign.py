@@ -1,6 +1,7 @@
 """The validation campaign: the people drawn (deterministic per seed, within the stated ranges),
-Clopper-Pearson against statsmodels and the closed form, the escape search, and a tiny campaign:
-the report's keys, resumption, determinism, and the same results on a local Ray instance."""
+Clopper-Pearson against statsmodels and the closed form, the escape search, the rate-limited
+plant, and a tiny campaign: the report's keys, resumption, determinism, and the same results on a
+local Ray instance."""
 
 from __future__ import annotations
 
@@ -301,6 +302,51 @@ def test_the_summary_counts_what_each_person_gave():
     assert (s["people"], s["breaches"], s["breaches_with_escape"]) == (6, 4, 3)
     assert (s["breaches_with_escape_after_detection"], s["breaches_with_escape_after_approach_onset"]) == (2, 1)
     assert s["people_over_acceleration_limit"] == 2 and s["max_joint_acceleration_ratio"] == 40.0
+    assert (s["plant"], s["people_rate_limited"]) == ("ideal", 0)  # rows from before the plant was recorded
+    limited = [dict(r, plant="rate-limited", rate_limited_steps=k) for r, k in zip(rows, (0, 3, 0, 1, 0, 0))]
+    (s,) = summarise(limited)
+    assert (s["plant"], s["people_rate_limited"]) == ("rate-limited", 2)
+
+
+@pytest.mark.parametrize("robot, person", [("iiwa", 5), ("panda", 5)])
+def test_the_rate_limited_arm_moves_within_its_limits_where_the_ideal_one_did_not(robot, person):
+    """The same person, the anticipative filter: the ideal plant follows commands beyond the
+    joint acceleration limit (the precondition: this person's run has them); through the
+    robot's rate limiter (closed loop) the arm's motion stays within the limit, the steps it
+    changed are counted, and the run still ends (the task completes)."""
+    from cobotsafety.tools.campaign.person_run import run_person
+
+    ideal, = run_person(robot, person, 0, ("anticipative",), escape_check=False)
+    limited, = run_person(robot, person, 0, ("anticipative",), escape_check=False, plant="rate-limited")
+    assert ideal["max_joint_acceleration_ratio"] > 2.0 and ideal["rate_limited_steps"] == 0
+    assert limited["max_joint_acceleration_ratio"] <= 1.0 + 1e-4  # (the result is rounded to 4 digits)
+    assert limited["rate_limited_steps"] > 0 and limited["plant"] == "rate-limited" and limited["completed"]
+
+
+def test_a_run_within_the_limits_is_the_same_on_both_plants():
+    """Person 31 (iiwa) is kept within the limits by the filter: the rate limiter changes no
+    step, so every result is the same bit for bit (the limiter lets a feasible command through
+    exactly)."""
+    from cobotsafety.tools.campaign.person_run import run_person
+
+    ideal, = run_person("iiwa", 31, 0, ("anticipative",), escape_check=False)
+    limited, = run_person("iiwa", 31, 0, ("anticipative",), escape_check=False, plant="rate-limited")
+    assert ideal["max_joint_acceleration_ratio"] <= 1.0 and limited["rate_limited_steps"] == 0
+    assert {k: v for k, v in limited.items() if k != "plant"} == {k: v for k, v in ideal.items() if k != "plant"}
+
+
+def test_a_directory_holding_another_campaign_is_refused(tmp_path):
+    """Resuming a directory with another plant or seed would mix two campaigns' results: one
+    clear error, nothing run."""
+    from cobotsafety.errors import CampaignError
+
+    (tmp_path / "campaign.json").write_text(json.dumps({"seed": 0, "dt_s": 1 / 275, "plant": "ideal"}))
+    with pytest.raises(CampaignError, match="plant 'ideal' there, 'rate-limited' asked"):
+        run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=0, workers=1, progress=False,
+                     plant="rate-limited")
+    with pytest.raises(CampaignError, match="seed 0 there, 3 asked"):
+        run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=3, workers=1, progress=False)
+    assert not (tmp_path / "results").exists()
 
 
 @pytest.fixture(scope="module")

@@ -239,6 +239,44 @@ class ArmController:
             raise ValueError(f"q must be {self.model.nq} finite numbers, got {q}")
         self._set_q(q)
 
+    def set_measured_state(self, q: np.ndarray, qdot_rad_s: np.ndarray, qddot_rad_s2: np.ndarray) -> None:
+        """Closed loop: the arm is at ``q`` (nq,) moving at ``qdot_rad_s`` (nv,) with the
+        acceleration ``qddot_rad_s2`` (nv,), as measured (or as the robot's own rate limiter let
+        it move, ``rate_limiter``); the next step starts from this state. The hand's velocity
+        and acceleration the next step's motion box starts from are those of this state
+        (pinocchio's classical acceleration). The hold point, the yield, the clock and the
+        counters are kept."""
+        import pinocchio as pin
+
+        nq, nv = self.model.nq, self.model.nv
+        q = np.array(q, dtype=float).reshape(-1)
+        qdot = np.array(qdot_rad_s, dtype=float).reshape(-1)
+        qddot = np.array(qddot_rad_s2, dtype=float).reshape(-1)
+        if q.shape != (nq,) or qdot.shape != (nv,) or qddot.shape != (nv,) or not (
+                np.all(np.isfinite(q)) and np.all(np.isfinite(qdot)) and np.all(np.isfinite(qddot))):
+            raise ValueError(f"a measured state is q ({nq}), qdot ({nv}) and qddot ({nv}) finite numbers, got "
+                             f"{q}, {qdot}, {qddot}")
+        self._set_q(q)
+        model, data, frame = self.model.model, self.model.model.createData(), self.model.ee_frame_id
+        pin.forwardKinematics(model, data, q, qdot, qddot)
+        a_ee = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).linear
+        self._state_f[nq:nq + nv] = qdot
+        self._state_f[nq + nv:nq + 2 * nv] = qddot
+        self._state_f[nq + 2 * nv:nq + 2 * nv + 3] = self.state.J_ee @ qdot
+        self._state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = a_ee
+
+    @property
+    def joint_velocity_rad_s(self) -> np.ndarray:
+        """The joint velocity (nv,) [rad/s] of the last step (a copy)."""
+        nq, nv = self.model.nq, self.model.nv
+        return self._state_f[nq:nq + nv].copy()
+
+    @property
+    def joint_acceleration_rad_s2(self) -> np.ndarray:
+        """The joint acceleration (nv,) [rad/s²] of the last step (a copy)."""
+        nq, nv = self.model.nq, self.model.nv
+        return self._state_f[nq + nv:nq + 2 * nv].copy()
+
     def reset(self) -> None:
         """Home pose at rest; hold, yield and the episode's counters cleared."""
         self._set_q(self.model.home_q)

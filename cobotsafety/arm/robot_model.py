@@ -70,6 +70,13 @@ class RobotModel:
 
         return pin.difference(self.model, q0, q1)
 
+    def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """The configuration (nq,) reached from ``q`` (nq,) by the joint motion ``dq`` (nv,)
+        (``pin.integrate``, the inverse of ``difference``)."""
+        import pinocchio as pin
+
+        return pin.integrate(self.model, q, dq)
+
     @classmethod
     def load(cls, name: str = DEFAULT_ROBOT, capsules: str = "fitted") -> "RobotModel":
         """Load robot ``name`` with its ``capsules`` table ("fitted" or "paper"): once per

@@ -1,7 +1,7 @@
 """``cobotsafety campaign``: a validation campaign over many drawn people (``cobotsafety.tools.campaign``).
 
     cobotsafety campaign --robot iiwa [--robot panda] --controller all --people 1000 [--seed 0]
-        [--workers 2] [--ray ADDRESS|local] --out DIR
+        [--workers 2] [--ray ADDRESS|local] [--plant ideal|rate-limited] --out DIR
 """
 
 from __future__ import annotations
@@ -23,6 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ray", default=None, metavar="ADDRESS",
                         help="run on a Ray cluster at ADDRESS ('local': start a local instance); needs the 'ray' extra")
     parser.add_argument("--no-escape-check", action="store_true", help="skip the offline escape search of breaches")
+    from cobotsafety.tools.campaign.person_run import PLANTS
+
+    parser.add_argument("--plant", default=PLANTS[0], choices=PLANTS,
+                        help="how the arm follows the commands: exactly (ideal, default), or through the robot's "
+                             "rate limiter, closed loop (rate-limited: libfranka's rule with the robot's limits)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="results, report.md and report.json")
 
 
@@ -43,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         except ImportError:
             raise SystemExit("--ray needs Ray: pip install 'cobotsafety[ray]'") from None
     out = run_campaign(args.out, tuple(args.robot), controllers, args.people, args.seed, args.workers, args.ray,
-                       escape_check=not args.no_escape_check)
+                       escape_check=not args.no_escape_check, plant=args.plant)
     print(json.dumps(out["timing"]))
     print(f"report: {args.out / 'report.md'}, {args.out / 'report.json'}")
     return 0

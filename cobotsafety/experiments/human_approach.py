@@ -75,6 +75,8 @@ class EpisodeLog:
     completion_s: float | None = None
     posture_recoveries: int = 0
     """Posture moves home after the task stalled at joint limits (``control.recovery``)."""
+    rate_limited_steps: int = 0
+    """Steps whose joint velocity the robot's rate limiter changed (``rate_limited`` runs)."""
     #: The arm's configuration and hand position before the first step (the per-step lists
     #: start after it): the motion's ratios are measured from rest there.
     q_start_rad: np.ndarray | None = None
@@ -104,11 +106,15 @@ class HumanSeries:
 
 def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s: float,
                 truth: TruthHuman | None = None, truth_offset_s: float = 0.0,
-                completion_tolerance_m: float = 0.01) -> EpisodeLog:
+                completion_tolerance_m: float = 0.01, rate_limited: bool = False) -> EpisodeLog:
     """Drive ``controller`` (``approach_step.Controller``) along ``path`` next to ``humans``
     until the path is done (end-effector within ``completion_tolerance_m`` of its end) or
     ``end_s``. ``truth`` at generator time ``truth_offset_s + t`` gives the true distance. A task
-    stalled at joint limits moves its posture home and resumes (``control.recovery``)."""
+    stalled at joint limits moves its posture home and resumes (``control.recovery``).
+    ``rate_limited``: the arm follows each step's joint velocity through the robot's rate
+    limiter (``arm.rate_limiter``, libfranka's rule), and the next step starts from the state
+    it reached (closed loop); else it follows every command exactly."""
+    from cobotsafety.arm.rate_limiter import follow_rate_limited
     from cobotsafety.control.pi import AntiWindupPI
     from cobotsafety.control.recovery import PostureRecovery
     from cobotsafety.experiments import approach_step
@@ -131,6 +137,8 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
         target = path.advance(p_ee, dt_s)
         error = target - p_ee
         posture = recovery.command(t, state.q, p_ee, target, blocked)
+        if rate_limited:
+            q_before, last = state.q.copy(), (arm.joint_velocity_rad_s, arm.joint_acceleration_rad_s2)
         if posture is None:
             v_att = pi.update(error, dt_s)
             out = approach_step.step(controller, human if present else None, v_att, dt_s)
@@ -139,6 +147,10 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
             out = approach_step.step(controller, human if present else None, posture, dt_s, joints=True)
             v_att = out.report.v_desired_m_s
         blocked = arm.blocked_by_joint_limits(out.report)
+        q_now, p_now, v_now = out.q, out.report.p_base_ee_m, out.report.v_executed_m_s
+        if rate_limited and follow_rate_limited(arm, q_before, *last, dt_s):
+            log.rate_limited_steps += 1
+            q_now, p_now, v_now = state.q.copy(), state.p_world_ee.copy(), state.J_ee @ arm.joint_velocity_rad_s
         k += 1
         t = k * dt_s
         robot = (state.capsule_p0[skip:], state.capsule_p1[skip:], state.capsule_radius[skip:])
@@ -152,10 +164,10 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
                 one = plain
         true = truth.distance_m(*robot, truth_offset_s + t) if truth is not None else np.nan
         for values, value in ((log.t_s, t), (log.seen_m, out.min_distance_m), (log.estimate_m, five),
-                              (log.one_capsule_m, one), (log.true_m, true), (log.p_ee_m, out.report.p_base_ee_m),
-                              (log.v_ee_m_s, out.report.v_executed_m_s), (log.v_att_m_s, v_att),
+                              (log.one_capsule_m, one), (log.true_m, true), (log.p_ee_m, p_now),
+                              (log.v_ee_m_s, v_now), (log.v_att_m_s, v_att),
                               (log.stopped, out.report.stopped), (log.protective, out.protective_stop),
-                              (log.q_rad, out.q)):
+                              (log.q_rad, q_now)):
             values.append(value)
         if path.finished and np.linalg.norm(state.p_world_ee - end_point) < completion_tolerance_m:
             log.completion_s = t

@@ -29,7 +29,10 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s",
                "escape_after_approach_onset", "approach_onset_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
-               "stopped_time_s", "protective_stop_time_s", "posture_recoveries")
+               "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps")
+#: How the arm follows the controller's command: exactly (``ideal``), or through the robot's
+#: rate limiter (``rate-limited``, closed loop: ``arm.rate_limiter``).
+PLANTS = ("ideal", "rate-limited")
 
 
 def campaign_task(home_m: np.ndarray):
@@ -91,9 +94,13 @@ def detection_time_s(t_s: np.ndarray, seen_m: np.ndarray, closest_s: float, dt_s
 
 
 def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], dt_s: float = 1 / settings.CONTROL_RATE_HZ,
-               escape_check: bool = True, nominal_s: float | None = None) -> list[dict]:
+               escape_check: bool = True, nominal_s: float | None = None, plant: str = "ideal") -> list[dict]:
     """One result dict (``RESULT_KEYS``) per controller for person ``index``; ``nominal_s``:
-    the task's time with nobody there (default ``nominal_completion_s``)."""
+    the task's time with nobody there (default ``nominal_completion_s``); ``plant``: the arm
+    follows every command (``"ideal"``) or each command through the robot's rate limiter
+    (``"rate-limited"``, ``arm.rate_limiter``; the filter sees the state it reached)."""
+    if plant not in PLANTS:
+        raise ValueError(f"plant must be one of {PLANTS}, got {plant!r}")
     from cobotsafety.experiments import approach_step
     from cobotsafety.experiments.approach_truth import TruthHuman
     from cobotsafety.experiments.human_approach import HumanSeries, episode_metrics, run_episode
@@ -112,7 +119,8 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
         controller = approach_step.make_controller(robot, name)
         path = campaign_task(approach_step.state(controller).p_world_ee.copy())
         end_s = max(nominal + TIMEOUT_EXTRA_S, replay.duration_s)
-        log = run_episode(controller, humans, recording.body, path, dt_s, end_s, truth, replay.start_s)
+        log = run_episode(controller, humans, recording.body, path, dt_s, end_s, truth, replay.start_s,
+                          rate_limited=plant == "rate-limited")
         m = episode_metrics(log, dt_s, controller)
         true_min = m.min_distance_true_m
         breach = bool(true_min is not None and true_min < settings.CRITICAL_M)
@@ -156,6 +164,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "peak_ee_speed_m_s": round(m.peak_ee_speed_m_s, 4),
             "max_joint_acceleration_ratio": round(m.max_joint_acceleration_ratio, 4),
             "stopped_time_s": round(m.stopped_time_s, 4), "protective_stop_time_s": round(m.protective_stop_time_s, 4),
-            "posture_recoveries": log.posture_recoveries,
+            "posture_recoveries": log.posture_recoveries, "plant": plant,
+            "rate_limited_steps": log.rate_limited_steps,
         })
     return results

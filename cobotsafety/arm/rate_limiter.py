@@ -1,0 +1,65 @@
+"""What a real arm's motion generator makes of a joint-velocity command: its rate limiter.
+
+The filter's command keeps the robot's motion limits except in its counted safety-over-
+smoothness steps (``StepReport.safety_over_smoothness``): there it asks for more acceleration
+than the arm has. A real arm does not follow such a command. Franka's FCI client offers a rate
+limiter for joint-velocity commands (libfranka's ``franka::limitRate`` in ``rate_limiting.cpp``,
+the ``limit_rate`` option of ``Robot::control``); without it the arm stops with a reflex. This
+module is that limiter's rule, applied per joint (``limit_rate``), as a model of the **plant**:
+the arm the filter drives, not part of the filter (issue 20 item 3 keeps the filter's own
+limits inside its projection). Per joint, from the last commanded velocity ``v`` and
+acceleration ``a``, over the period ``dt``::
+
+    jerk = ((v_c - v) / dt - a) / dt                      clipped to +-J
+    a'   = a + jerk dt                                      clipped to [lo(v), hi(v)]
+    v'   = v + a' dt
+    hi(v) = min(g (V - v), A),  lo(v) = max(g (-V - v), -A),  g = min(J / A, 1 / dt)
+
+with the robot's velocity ``V``, acceleration ``A`` and jerk ``J`` limits (``MotionLimits``):
+the acceleration allowed shrinks as the speed nears its limit, so the speed meets it at the
+jerk allowed. libfranka's gain is ``J / A`` at its fixed 1 ms; ``g`` caps it at ``1 / dt`` so
+that a longer period (the campaign's 275 Hz: the Panda's ``J / A`` is 500 /s, 1.8 / dt) cannot
+carry the speed past ``V`` (``v' <= V`` follows from ``a' <= (V - v) / dt``). A joint whose jerk
+and acceleration are inside their clips keeps its commanded velocity exactly (not re-summed).
+
+``follow_rate_limited(arm, ...)`` closes the loop: after a step it passes the step's joint
+velocity through the limiter and, where it changed, puts the arm at the state the limited motion
+reaches (``ArmController.set_measured_state``), so the next step starts from what the arm did.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cobotsafety.arm.motion_limits import MotionLimits
+
+
+def limit_rate(limits: MotionLimits, qdot_commanded: np.ndarray, qdot_last: np.ndarray, qddot_last: np.ndarray,
+               dt_s: float) -> np.ndarray:
+    """The joint velocity (nv,) [rad/s] the rate limiter lets through after ``qdot_last`` (nv,)
+    [rad/s] and ``qddot_last`` (nv,) [rad/s²] over ``dt_s`` [s] (module docstring)."""
+    v_max, a_max, j_max = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
+    jerk = ((qdot_commanded - qdot_last) / dt_s - qddot_last) / dt_s
+    clipped_jerk = np.clip(jerk, -j_max, j_max)
+    a = qddot_last + clipped_jerk * dt_s
+    gain = np.minimum(j_max / a_max, 1.0 / dt_s)
+    hi = np.minimum(gain * (v_max - qdot_last), a_max)
+    lo = np.maximum(gain * (-v_max - qdot_last), -a_max)
+    limited_a = np.clip(a, lo, hi)
+    kept = (clipped_jerk == jerk) & (limited_a == a)
+    return np.where(kept, qdot_commanded, qdot_last + limited_a * dt_s)
+
+
+def follow_rate_limited(arm, q_before: np.ndarray, qdot_last: np.ndarray, qddot_last: np.ndarray,
+                        dt_s: float) -> bool:
+    """After ``arm`` (``ArmController``) stepped from ``q_before`` (nq,) with the last velocity
+    ``qdot_last`` and acceleration ``qddot_last`` (nv,): the arm follows its step's joint
+    velocity through ``limit_rate``; returns whether the limiter changed it (then the arm is put
+    at the state the limited motion reaches)."""
+    commanded = arm.joint_velocity_rad_s
+    limited = limit_rate(arm.model.limits, commanded, qdot_last, qddot_last, dt_s)
+    if np.array_equal(limited, commanded):
+        return False
+    q = arm.model.integrate(q_before, limited * dt_s)
+    arm.set_measured_state(q, limited, (limited - qdot_last) / dt_s)
+    return True
