@@ -303,9 +303,10 @@ def test_the_summary_counts_what_each_person_gave():
     assert (s["breaches_with_escape_after_detection"], s["breaches_with_escape_after_approach_onset"]) == (2, 1)
     assert s["people_over_acceleration_limit"] == 2 and s["max_joint_acceleration_ratio"] == 40.0
     assert (s["plant"], s["people_rate_limited"]) == ("ideal", 0)  # rows from before the plant was recorded
-    limited = [dict(r, plant="rate-limited", rate_limited_steps=k) for r, k in zip(rows, (0, 3, 0, 1, 0, 0))]
+    limited = [dict(r, plant="rate-limited", rate_limited_steps=k, safety_over_smoothness_steps=n)
+               for r, k, n in zip(rows, (0, 3, 0, 1, 0, 2), (0, 2, 0, 0, 0, 0))]
     (s,) = summarise(limited)
-    assert (s["plant"], s["people_rate_limited"]) == ("rate-limited", 2)
+    assert (s["plant"], s["people_rate_limited"], s["people_with_safety_over_smoothness"]) == ("rate-limited", 3, 1)
 
 
 @pytest.mark.parametrize("robot, person", [("iiwa", 5), ("panda", 5)])
@@ -321,6 +322,7 @@ def test_the_rate_limited_arm_moves_within_its_limits_where_the_ideal_one_did_no
     assert ideal["max_joint_acceleration_ratio"] > 2.0 and ideal["rate_limited_steps"] == 0
     assert limited["max_joint_acceleration_ratio"] <= 1.0 + 1e-4  # (the result is rounded to 4 digits)
     assert limited["rate_limited_steps"] > 0 and limited["plant"] == "rate-limited" and limited["completed"]
+    assert ideal["safety_over_smoothness_steps"] > 0  # the filter counted the steps it commanded beyond them
 
 
 def test_a_run_within_the_limits_is_the_same_on_both_plants():

@@ -29,7 +29,8 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s",
                "escape_after_approach_onset", "approach_onset_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
-               "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps")
+               "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps",
+               "safety_over_smoothness_steps")
 #: How the arm follows the controller's command: exactly (``ideal``), or through the robot's
 #: rate limiter (``rate-limited``, closed loop: ``arm.rate_limiter``).
 PLANTS = ("ideal", "rate-limited")
@@ -166,5 +167,6 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "stopped_time_s": round(m.stopped_time_s, 4), "protective_stop_time_s": round(m.protective_stop_time_s, 4),
             "posture_recoveries": log.posture_recoveries, "plant": plant,
             "rate_limited_steps": log.rate_limited_steps,
+            "safety_over_smoothness_steps": m.safety_over_smoothness_steps,
         })
     return results

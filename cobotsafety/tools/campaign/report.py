@@ -19,7 +19,11 @@ robot on it), so the distances of those runs are of an arm that did what no real
 *plant* says how the arm followed the commands: ``ideal`` (exactly, every step) or
 ``rate-limited`` (through the robot's rate limiter, ``arm.rate_limiter``, closed loop: the
 filter saw the state the arm reached); *people rate-limited*: whose run had at least one step the
-limiter changed (with it, the acceleration ratios are of the motion the arm made, at most 1).
+limiter changed (with it, the acceleration ratios are of the motion the arm made, at most 1; the
+limiter also changes commands within the limits: its speed-dependent acceleration bound, linear
+in the speed left, is stricter than the jerk-limited ramp the filter plans with); *people with
+safety over smoothness*: whose filter commanded beyond the motion limits at least once to keep a
+limitation (the filter's own count, ``StepReport.safety_over_smoothness``).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_9
                "breaches_with_escape_after_detection", "breaches_with_escape_after_approach_onset",
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
                "max_joint_acceleration_ratio", "people_over_acceleration_limit", "people_with_posture_recovery",
-               "plant", "people_rate_limited")
+               "plant", "people_rate_limited", "people_with_safety_over_smoothness")
 #: A run's largest joint acceleration ratio counts as over the limit above this (the filter plans
 #: within ``MOTION_MARGIN`` of the limits; finite differences of a kept run give at most 1.0000).
 OVER_LIMIT = 1.001
@@ -76,6 +80,7 @@ def summarise(results: list[dict]) -> list[dict]:
             "people_with_posture_recovery": sum(r.get("posture_recoveries", 0) > 0 for r in rows),
             "plant": "/".join(sorted({r.get("plant", "ideal") for r in rows})),
             "people_rate_limited": sum(r.get("rate_limited_steps", 0) > 0 for r in rows),
+            "people_with_safety_over_smoothness": sum(r.get("safety_over_smoothness_steps", 0) > 0 for r in rows),
         })
     return out
 
@@ -98,8 +103,9 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | of which after detection | "
              "of which after the approach began | "
              "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
-             "people over the accel limit | posture moves home | plant | people rate-limited |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "people over the accel limit | posture moves home | plant | people rate-limited | "
+             "people with safety over smoothness |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
@@ -108,7 +114,8 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
                      f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_over_acceleration_limit']} | "
-                     f"{s['people_with_posture_recovery']} | {s['plant']} | {s['people_rate_limited']} |")
+                     f"{s['people_with_posture_recovery']} | {s['plant']} | {s['people_rate_limited']} | "
+                     f"{s['people_with_safety_over_smoothness']} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]
     by_kind: dict[tuple, list[int]] = {}
     for r in results:
