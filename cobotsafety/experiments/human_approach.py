@@ -113,7 +113,9 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     stalled at joint limits moves its posture home and resumes (``control.recovery``).
     ``rate_limited``: the arm follows each step's joint velocity through the robot's rate
     limiter (``arm.rate_limiter``, libfranka's rule), and the next step starts from the state
-    it reached (closed loop); else it follows every command exactly."""
+    it reached (closed loop); else it follows every command exactly. (On a step the limiter
+    changed, the logged pipeline distance is the one the step computed at its commanded pose;
+    the true distance, the joint path and the hand's are the arm's.)"""
     from cobotsafety.arm.rate_limiter import follow_rate_limited
     from cobotsafety.control.pi import AntiWindupPI
     from cobotsafety.control.recovery import PostureRecovery
