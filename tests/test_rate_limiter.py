@@ -140,3 +140,22 @@ def test_a_measured_state_that_is_not_finite_or_misshaped_is_refused(bad):
     with pytest.raises(ValueError, match="measured state"):
         arm.set_measured_state(q, qdot, qddot)
     np.testing.assert_array_equal(arm.state.q, arm.model.home_q)  # nothing changed
+
+
+def test_a_measured_state_beyond_a_joint_limit_is_kept_where_it_is():
+    """A real arm (or the rate-limited plant) may be past a joint's software limit: the state is
+    put there, not at the end stop (its kinematics are pinocchio's at the measured ``q``), and
+    the next step moves the joint back toward its range."""
+    from cobotsafety.arm.controller import ArmController
+
+    arm = ArmController("iiwa", zones=[], capsules="paper")
+    model = arm.model.model
+    q = arm.model.home_q.copy()
+    q[1] = arm.model.upper[1] + 0.01
+    arm.set_measured_state(q, np.zeros(model.nv), np.zeros(model.nv))
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    np.testing.assert_array_equal(arm.state.q, q)
+    np.testing.assert_allclose(arm.state.p_world_ee, data.oMf[arm.model.ee_frame_id].translation, atol=1e-12)
+    arm.step(np.zeros(3), 1e-3, "anticipative")
+    assert arm.model.upper[1] < arm.state.q[1] < q[1]

@@ -84,7 +84,7 @@ _SSM_FLAGS = {mode: FLAG_ORIENTATION | (FLAG_SSM if mode in ("scaling", "both") 
               | (FLAG_PROTECTIVE if mode in ("stop", "both") else 0) for mode in SSM_MODES}
 _SSM_FLAGS.update({value: _SSM_FLAGS[mode] for value, mode in SSM_MODES_BY_VALUE.items()})
 _STRATEGY_CODES = {name: code for code, name in enumerate(STRATEGIES)}
-_ANTICIPATIVE, _OFF = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"]
+_ANTICIPATIVE, _OFF, _STOP = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["off"], _STRATEGY_CODES["stop"]
 _FLOAT = np.dtype(float)
 _ZERO3 = np.zeros(3)
 _EMPTY = np.zeros(0)
@@ -217,14 +217,16 @@ class ArmController:
 
     # ---- state ------------------------------------------------------------------------------
     def _set_q(self, q: np.ndarray) -> None:
-        """Put the arm at ``q`` at rest and compute its kinematics (one zero-velocity step)."""
+        """Put the arm at ``q`` at rest and compute its kinematics (one zero-velocity step; the
+        stop strategy, which, unlike ``off``, does not hold the joints at their end stops, so a
+        ``q`` beyond a joint limit stays where it is)."""
         nq = self.model.nq
         self._state_f[:] = 0.0
         self._state_f[:nq] = q
         self._reference_f[9] = self.settings.max_speed_m_s
         out_f, out_i = np.empty(self._out_size), np.empty(self._out_i_size, dtype=np.int64)
-        # Off, braking to a stop from rest: the arm stays put and the step computes its kinematics.
-        arm_step(self._state_f, _EMPTY, np.zeros(3), 1e-3, _OFF, FLAG_STOP, 0.0, self._reference_f, self.model.robot_i,
+        # Stopped from rest, nothing in the scene: the arm stays put and the step computes its kinematics.
+        arm_step(self._state_f, _EMPTY, np.zeros(3), 1e-3, _STOP, FLAG_STOP, 0.0, self._reference_f, self.model.robot_i,
                  self.model.robot_f, np.zeros((0, 2), dtype=np.int64), np.zeros((0, 12)), np.zeros(0),
                  self._settings_f, out_f, out_i)
         self._state_f[:nq] = q
