@@ -303,6 +303,7 @@ def test_the_summary_counts_what_each_person_gave():
     assert (s["breaches_with_escape_after_detection"], s["breaches_with_escape_after_approach_onset"]) == (2, 1)
     assert s["people_over_acceleration_limit"] == 2 and s["max_joint_acceleration_ratio"] == 40.0
     assert (s["plant"], s["people_rate_limited"]) == ("ideal", 0)  # rows from before the plant was recorded
+    assert s["people_with_safety_over_smoothness"] is None  # not kept then: unknown, not 0
     limited = [dict(r, plant="rate-limited", rate_limited_steps=k, safety_over_smoothness_steps=n)
                for r, k, n in zip(rows, (0, 3, 0, 1, 0, 2), (0, 2, 0, 0, 0, 0))]
     (s,) = summarise(limited)
@@ -317,8 +318,8 @@ def test_the_rate_limited_arm_moves_within_its_limits_where_the_ideal_one_did_no
     changed are counted, and the run still ends (the task completes)."""
     from cobotsafety.tools.campaign.person_run import run_person
 
-    ideal, = run_person(robot, person, 0, ("anticipative",), escape_check=False)
-    limited, = run_person(robot, person, 0, ("anticipative",), escape_check=False, plant="rate-limited")
+    ideal, = run_person(robot, person, 0, ("anticipative",), escape_check=False, plant="ideal")
+    limited, = run_person(robot, person, 0, ("anticipative",), escape_check=False)  # the default plant
     assert ideal["max_joint_acceleration_ratio"] > 2.0 and ideal["rate_limited_steps"] == 0
     assert limited["max_joint_acceleration_ratio"] <= 1.0 + 1e-4  # (the result is rounded to 4 digits)
     assert limited["rate_limited_steps"] > 0 and limited["plant"] == "rate-limited" and limited["completed"]
@@ -331,7 +332,7 @@ def test_a_run_within_the_limits_is_the_same_on_both_plants():
     exactly)."""
     from cobotsafety.tools.campaign.person_run import run_person
 
-    ideal, = run_person("iiwa", 31, 0, ("anticipative",), escape_check=False)
+    ideal, = run_person("iiwa", 31, 0, ("anticipative",), escape_check=False, plant="ideal")
     limited, = run_person("iiwa", 31, 0, ("anticipative",), escape_check=False, plant="rate-limited")
     assert ideal["max_joint_acceleration_ratio"] <= 1.0 and limited["rate_limited_steps"] == 0
     assert {k: v for k, v in limited.items() if k != "plant"} == {k: v for k, v in ideal.items() if k != "plant"}

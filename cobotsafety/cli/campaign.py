@@ -1,7 +1,7 @@
 """``cobotsafety campaign``: a validation campaign over many drawn people (``cobotsafety.tools.campaign``).
 
     cobotsafety campaign --robot iiwa [--robot panda] --controller all --people 1000 [--seed 0]
-        [--workers 2] [--ray ADDRESS|local] [--plant ideal|rate-limited] --out DIR
+        [--workers 2] [--ray ADDRESS|local] [--plant rate-limited|ideal] --out DIR
 """
 
 from __future__ import annotations
@@ -23,11 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ray", default=None, metavar="ADDRESS",
                         help="run on a Ray cluster at ADDRESS ('local': start a local instance); needs the 'ray' extra")
     parser.add_argument("--no-escape-check", action="store_true", help="skip the offline escape search of breaches")
-    from cobotsafety.tools.campaign.person_run import PLANTS
+    from cobotsafety.tools.campaign.person_run import DEFAULT_PLANT, PLANTS
 
-    parser.add_argument("--plant", default=PLANTS[0], choices=PLANTS,
-                        help="how the arm follows the commands: exactly (ideal, default), or through the robot's "
-                             "rate limiter, closed loop (rate-limited: libfranka's rule with the robot's limits)")
+    parser.add_argument("--plant", default=DEFAULT_PLANT, choices=PLANTS,
+                        help="how the arm follows the commands: through the robot's rate limiter, closed loop "
+                             "(rate-limited, default: libfranka's rule with the robot's limits), or exactly (ideal)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="results, report.md and report.json")
 
 

@@ -31,9 +31,11 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
                "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps",
                "safety_over_smoothness_steps")
-#: How the arm follows the controller's command: exactly (``ideal``), or through the robot's
-#: rate limiter (``rate-limited``, closed loop: ``arm.rate_limiter``).
-PLANTS = ("ideal", "rate-limited")
+#: How the arm follows the controller's command: through the robot's rate limiter
+#: (``rate-limited``, closed loop: ``arm.rate_limiter``; the default: a real arm does not follow a
+#: command beyond its motion limits), or exactly (``ideal``).
+PLANTS = ("rate-limited", "ideal")
+DEFAULT_PLANT = PLANTS[0]
 
 
 def campaign_task(home_m: np.ndarray):
@@ -95,7 +97,7 @@ def detection_time_s(t_s: np.ndarray, seen_m: np.ndarray, closest_s: float, dt_s
 
 
 def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], dt_s: float = 1 / settings.CONTROL_RATE_HZ,
-               escape_check: bool = True, nominal_s: float | None = None, plant: str = "ideal") -> list[dict]:
+               escape_check: bool = True, nominal_s: float | None = None, plant: str = DEFAULT_PLANT) -> list[dict]:
     """One result dict (``RESULT_KEYS``) per controller for person ``index``; ``nominal_s``:
     the task's time with nobody there (default ``nominal_completion_s``); ``plant``: the arm
     follows every command (``"ideal"``) or each command through the robot's rate limiter

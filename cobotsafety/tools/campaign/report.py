@@ -80,7 +80,8 @@ def summarise(results: list[dict]) -> list[dict]:
             "people_with_posture_recovery": sum(r.get("posture_recoveries", 0) > 0 for r in rows),
             "plant": "/".join(sorted({r.get("plant", "ideal") for r in rows})),
             "people_rate_limited": sum(r.get("rate_limited_steps", 0) > 0 for r in rows),
-            "people_with_safety_over_smoothness": sum(r.get("safety_over_smoothness_steps", 0) > 0 for r in rows),
+            "people_with_safety_over_smoothness": None if any("safety_over_smoothness_steps" not in r for r in rows)
+            else sum(r["safety_over_smoothness_steps"] > 0 for r in rows),  # (None: results from before it was kept)
         })
     return out
 
@@ -115,7 +116,7 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
                      f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_over_acceleration_limit']} | "
                      f"{s['people_with_posture_recovery']} | {s['plant']} | {s['people_rate_limited']} | "
-                     f"{s['people_with_safety_over_smoothness']} |")
+                     f"{fmt(s['people_with_safety_over_smoothness'])} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]
     by_kind: dict[tuple, list[int]] = {}
     for r in results:

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from cobotsafety.experiments import approach_settings as settings
+from cobotsafety.tools.campaign.person_run import DEFAULT_PLANT
 
 CONTROLLERS = ("anticipative", "reactive", "stop")
 
@@ -44,7 +45,7 @@ def pending_tasks(out_dir: Path, robots, controllers, people: int) -> list[tuple
 
 
 def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], dt_s: float, escape_check: bool,
-             nominal_s: float | None = None, plant: str = "ideal") -> tuple[list[dict], float]:
+             nominal_s: float | None = None, plant: str = DEFAULT_PLANT) -> tuple[list[dict], float]:
     """One task in a worker (``person_run.run_person``): its results and the CPU time it took
     [s] (the worker process's, so a shared machine's load does not count); the step's warnings
     are not printed."""
@@ -100,7 +101,7 @@ def load_results(out_dir: Path, robots, controllers, people: int) -> list[dict]:
 
 def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 100, seed: int = 0, workers: int = 2,
                  ray_address: str | None = None, dt_s: float = 1 / settings.CONTROL_RATE_HZ, escape_check: bool = True,
-                 progress: bool = True, plant: str = "ideal") -> dict:
+                 progress: bool = True, plant: str = DEFAULT_PLANT) -> dict:
     """Run what is missing, then write the report; returns ``{"summary", "timing"}``. A
     directory holds one campaign: resuming it with another seed, period or plant raises
     ``CampaignError`` (its results would mix)."""
