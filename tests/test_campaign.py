@@ -350,6 +350,10 @@ def test_a_directory_holding_another_campaign_is_refused(tmp_path):
     with pytest.raises(CampaignError, match="seed 0 there, 3 asked"):
         run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=3, workers=1, progress=False)
     assert not (tmp_path / "results").exists()
+    for text in ("{not json", "[1, 2]"):
+        (tmp_path / "campaign.json").write_text(text)
+        with pytest.raises(CampaignError, match="is not a campaign's settings"):
+            run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=0, workers=1, progress=False)
 
 
 @pytest.fixture(scope="module")

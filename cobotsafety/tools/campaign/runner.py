@@ -79,7 +79,12 @@ def _check_settings(out_dir: Path, wanted: dict) -> None:
 
     path = Path(out_dir) / "campaign.json"
     if path.exists():
-        found = json.loads(path.read_text())
+        try:
+            found = json.loads(path.read_text())
+        except (ValueError, UnicodeDecodeError) as error:
+            raise CampaignError(f"{path} is not a campaign's settings ({error}): use a new --out directory") from None
+        if not isinstance(found, dict):
+            raise CampaignError(f"{path} is not a campaign's settings (not an object): use a new --out directory")
         differ = {k: (found[k], v) for k, v in wanted.items() if k in found and found[k] != v}
         if differ:
             said = ", ".join(f"{k} {was!r} there, {now!r} asked" for k, (was, now) in differ.items())
