@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cobotsafety.arm.motion_box import motion_box
 from cobotsafety.arm.rate_limiter import limit_rate
 from cobotsafety.arm.robot_model import RobotModel
 
@@ -160,29 +159,3 @@ def test_a_measured_state_beyond_a_joint_limit_is_kept_where_it_is():
     np.testing.assert_allclose(arm.state.p_world_ee, data.oMf[arm.model.ee_frame_id].translation, atol=1e-12)
     arm.step(np.zeros(3), 1e-3, "anticipative")
     assert arm.model.upper[1] < arm.state.q[1] < q[1]
-
-
-@settings(max_examples=300, deadline=None)
-@given(robot=st.sampled_from(["panda", "iiwa"]), dt=st.floats(1e-4, 1e-2), seed=st.integers(0, 2**32 - 1))
-def test_a_command_in_the_filters_motion_box_passes_the_limiter_unchanged(robot, dt, seed):
-    """Every joint velocity the filter's motion box allows (``motion_box.motion_box``, the
-    joints' limits) from a state within the limiter's own bounds is let through bit for bit, up
-    to the speed limit: the filter plans toward a joint's speed limit with the acceleration the
-    arm's rate limiter allows there, so the rate-limited plant follows it exactly (before, its
-    jerk-limited ramp alone let a joint accelerate at ~2x what the limiter allows in the last
-    fifth of an iiwa joint's speed, and the limiter reshaped those commands)."""
-    limits = RobotModel.load(robot, "paper").limits
-    V, A, J = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
-    rng = np.random.default_rng(seed)
-    # Joints at every speed, a third of them in the last fifth before the limit.
-    v = np.where(rng.random(V.size) < 0.35, rng.choice([-1, 1], V.size) * rng.uniform(0.8, 1.0, V.size),
-                 rng.uniform(-1, 1, V.size)) * V
-    gain = np.minimum(J / A, 1 / dt)
-    a_lo, a_hi = np.maximum(gain * (-V - v), -A), np.minimum(gain * (V - v), A)
-    a = a_lo + rng.random(V.size) * (a_hi - a_lo)  # a state the limiter itself could have reached
-    lo, hi = np.empty(V.size), np.empty(V.size)
-    motion_box(v, a, A, J, V, dt, lo, hi)
-    assert np.all(lo <= hi)
-    for share in (0.0, 1.0, *rng.random(6)):
-        command = lo + share * (hi - lo)
-        assert np.array_equal(limit_rate(limits, command, v, a, dt), command), (share, command - v)

@@ -4,9 +4,7 @@ plans with.
 
 ``motion_box`` bounds each coordinate's next velocity: within ``acc dt`` of the previous one and
 ``jerk dt^2`` of its extrapolation at the previous acceleration, and toward the speed limit no
-faster than the acceleration can still ramp down at the jerk limit (``ramp_acceleration``) nor
-than a real arm's rate limiter lets it (``rate_gain``: libfranka's bound, linear in the speed
-left, so a command within the box passes ``rate_limiter.limit_rate`` unchanged).
+faster than the acceleration can still ramp down at the jerk limit (``ramp_acceleration``).
 ``step_kernel.arm_step`` gives it the joints' limits and the end-effector's (per axis).
 """
 
@@ -39,17 +37,6 @@ def ramp_acceleration(room, jerk, dt_s):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def rate_gain(acc, jerk, dt_s):  # pragma: no cover - compiled
-    """The gain [1/s] of the acceleration a real arm allows toward a speed limit, per unit of
-    speed left: libfranka's rate limiter allows ``min(g (V - v), A)`` with ``g = J / A``
-    (``franka::limitRate``), capped at ``1 / dt`` so that a step cannot pass the limit (the
-    same rule as ``rate_limiter.limit_rate``, the plant's model). Near the limit it is stricter
-    than the jerk-limited ramp (``g room < sqrt(2 J room)`` for ``room < 2 A^2 / J``: the last
-    fifth of an iiwa joint's speed, the Panda's last 0.06 rad/s at 1 ms)."""
-    return min(jerk / acc, 1.0 / dt_s)
-
-
-@numba.njit(cache=True)
 def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: no cover - compiled
     """The velocities the next step may take [rad/s or m/s]: within ``acc dt`` of the previous
     velocity and ``jerk dt^2`` of its extrapolation at the previous acceleration; when those
@@ -69,7 +56,7 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
             room = vel[j] - sign * qdot_prev[j]  # speed left before the limit on that side
             if room <= 0.0:
                 continue
-            a_max = min(ramp_acceleration(room, jerk[j], dt_s), MOTION_MARGIN * rate_gain(acc[j], jerk[j], dt_s) * room)
+            a_max = ramp_acceleration(room, jerk[j], dt_s)
             if side == 0:
                 hi[j] = max(min(hi[j], qdot_prev[j] + a_max * dt_s), lo[j])
             else:
