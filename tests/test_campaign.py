@@ -328,11 +328,11 @@ def test_the_rate_limited_arm_moves_within_its_limits_where_the_ideal_one_did_no
 
 @pytest.mark.parametrize("robot, person", [("iiwa", 31), ("panda", 21)])
 def test_a_run_within_the_limits_is_the_same_on_both_plants(robot, person):
-    """People the filter keeps within the limits (no step counted beyond them, and none near a
-    joint's speed limit, where the limiter's bound is stricter than the filter's ramp): the rate
-    limiter changes no step, so every result is the same bit for bit (the limiter lets a
-    feasible command through exactly). Panda 21 holds joint 6 at its speed limit, where the
-    solver's rounding asked 1e-14 rad/s more: 5 steps "changed" by that before
+    """People the filter keeps within the limits (no step counted beyond them, and no joint
+    accelerating in the last part of its speed, where the limiter's bound is stricter than the
+    filter's ramp): the rate limiter changes no step, so every result is the same bit for bit
+    (the limiter lets a feasible command through exactly). Panda 21 holds joint 6 at its speed
+    limit, where the solver's rounding asked 1e-14 rad/s more: 5 steps "changed" by that before
     ``rate_limiter.ROUNDING_RAD_S``."""
     from cobotsafety.tools.campaign.person_run import run_person
 
