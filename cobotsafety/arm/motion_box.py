@@ -25,6 +25,10 @@ EE_AXIS_SHARE = EE_MOTION_SHARE / math.sqrt(3.0)
 #: The motion box is planned this far inside the acceleration and jerk limits, so that the
 #: solver's tolerance (1e-9 on rows scaled to unit length) never pushes a command past them.
 MOTION_MARGIN = 1.0 - 1e-4
+#: A joint velocity within this [rad/s] of its motion box or speed limit is on it: the solver's
+#: rounding. ``step_kernel.arm_step`` puts a joint back on a bound only past it; the plant
+#: (``rate_limiter.follow_rate_limited``) takes a limiter's change this small as none.
+ROUNDING_RAD_S = 1e-12
 
 
 @numba.njit(cache=True)

@@ -32,14 +32,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from cobotsafety.arm.motion_box import ROUNDING_RAD_S
 from cobotsafety.arm.motion_limits import MotionLimits
 
-
-#: A change by the limiter no larger than this [rad/s] is rounding, taken as none: the filter
-#: meets its bounds to ~1e-12 rad/s (``step_kernel``), and a joint held at its speed limit was
-#: commanded 1e-14 rad/s beyond it (campaign person 21, panda: 5 steps "changed" by that; 115
-#: of the panda's 1,000 people at aa6cf1f).
-ROUNDING_RAD_S = 1e-12
+# A change by the limiter no larger than ``ROUNDING_RAD_S`` is rounding, taken as none: the
+# filter meets its bounds to that (``step_kernel``), and a joint held at its speed limit was
+# commanded 1e-14 rad/s beyond it (campaign person 21, panda: 5 steps "changed" by that; 115 of
+# the panda's 1,000 people at aa6cf1f).
 
 
 def limit_rate(limits: MotionLimits, qdot_commanded: np.ndarray, qdot_last: np.ndarray, qddot_last: np.ndarray,

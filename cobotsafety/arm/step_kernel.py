@@ -62,7 +62,8 @@ from cobotsafety.arm.limitation_bounds import limitation_bounds
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
-from cobotsafety.arm.motion_box import EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN, motion_box, ramp_acceleration
+from cobotsafety.arm.motion_box import (EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN, ROUNDING_RAD_S, motion_box,
+                                        ramp_acceleration)
 from cobotsafety.arm.potential_field import field_push, field_velocity, limit_scale, weighted_least_norm
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import null_basis, task_mapping
@@ -579,15 +580,15 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     # the task's coordinates), which through a task mapping near a singularity is up to ~1e-8
     # rad/s of a joint's velocity: a few 1e-4 of a jerk step at 1 kHz. The joints' speed limits
     # (always hard) and, when nothing gave way, their motion box are bounds on one joint each:
-    # a joint beyond one by more than rounding (1e-12 rad/s, 1e-8 of a jerk step) is put back
+    # a joint beyond one by more than rounding (``ROUNDING_RAD_S``, 1e-8 of a jerk step) is put back
     # on it (the change is that small; the other rows move by as little; clamping every excess
     # moved paper 2's exp1 on the panda at 275 Hz onto 3 steps that gave up smoothness, against
     # 0: the plant, ``rate_limiter.follow_rate_limited``, takes a rounding's change as none).
     if level != LEVEL_STOPPED:
         for j in range(nv):
-            if level == LEVEL_EXACT and (qdot[j] < lo[j] - 1e-12 or qdot[j] > hi[j] + 1e-12):
+            if level == LEVEL_EXACT and (qdot[j] < lo[j] - ROUNDING_RAD_S or qdot[j] > hi[j] + ROUNDING_RAD_S):
                 qdot[j] = min(max(qdot[j], lo[j]), hi[j])
-            if abs(qdot[j]) > vel[j] + 1e-12:
+            if abs(qdot[j]) > vel[j] + ROUNDING_RAD_S:
                 qdot[j] = min(max(qdot[j], -vel[j]), vel[j])
     for i in range(count, rows):
         code[i] = row_code(OWNER_SPEED, 0, 0)
