@@ -10,7 +10,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cobotsafety.arm.kinematics import attached_point, drift_along, frame_jacobian, integrate, log3, point_jacobian_row
+from cobotsafety.arm.kinematics import (attached_point, drift_along, fastest_capsule_end, frame_jacobian, integrate, log3,
+                                        point_jacobian_row)
 from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robots import ROBOTS
 from cobotsafety.arm.step_kernel import I_BINDING, I_MOTION_COUNT, OUT_I_HEADER, unpack_robot
@@ -106,6 +107,30 @@ def test_a_points_drift_equals_pinocchios_classical_acceleration(name):
         hand = pin.getFrameClassicalAcceleration(model.model, data, ee, pin.LOCAL_WORLD_ALIGNED).linear
         assert drift_along(u, J6, qdot) == pytest.approx(u @ hand, rel=1e-9, abs=1e-10)
     assert worst > 1.0  # the drifts compared are not all tiny
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_the_fastest_capsule_end_is_the_fastest_of_pinocchios_point_velocities(name):
+    """``fastest_capsule_end`` against pinocchio's velocities of the capsules' end points
+    (``forwardKinematics(q, qdot)``: ``v_o + w x r`` of each point's joint), at random states."""
+    model = robot(name)
+    unpacked = unpack_robot(model.robot_i, model.robot_f)
+    parent, idx_v, cap_joint, axes = unpacked[4], unpacked[6], unpacked[8], unpacked[10]
+    rng = np.random.default_rng(270 + ROBOT_NAMES.index(name))
+    data = model.model.createData()
+    for _ in range(STATES):
+        q = random_configuration(model.model, rng)
+        qdot = rng.normal(size=model.nv) * 2.0
+        pin.forwardKinematics(model.model, data, q, qdot)
+        _, _, _, _, oR, op, p0, p1 = compiled_kinematics(model, q)
+        speeds = []
+        for c, joint in enumerate(int(j) for j in cap_joint):
+            R, o = data.oMi[joint].rotation, data.oMi[joint].translation
+            v, w = R @ data.v[joint].linear, R @ data.v[joint].angular  # in the world's axes
+            speeds += [np.linalg.norm(v + np.cross(w, p - o)) for p in (p0[c], p1[c])]
+        got = fastest_capsule_end(oR, op, axes, parent, idx_v, cap_joint, p0, p1, qdot)
+        assert got == pytest.approx(max(speeds), rel=1e-12, abs=1e-12)
+        assert got > 0.1  # moving: the speeds compared are not all zero
 
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)

@@ -31,7 +31,10 @@ class FilterSettings:
       (0.9) of the robot's own ``ee_speed_m_s`` when that is more), never the robot's own
       ``ee_speed_m_s``.
     * ``activation_m`` 0.15: metric limitations (zones, table, reach) farther than this do not
-      enter the filter (the braking distance at the cap is ~0.03 m).
+      enter the filter unless the arm moves fast enough to need more: they enter from the plan's
+      braking distance (``brake_share`` of the hand's per-axis box) of the arm's fastest capsule
+      end at its speed now, when that is farther (the panda's hand at the cap of 0.5 m/s brakes
+      in 0.04 m, the iiwa's in 0.25 m).
     * ``buffer_m`` / ``buffer_rad`` 1e-3: the filter keeps this clearance, so the second-order
       motion while sliding (curved limitations, rotating links) never reaches the limit itself.
     * ``recovery_gain_per_s`` 1.0: inside the buffer the arm drifts back out at this rate times

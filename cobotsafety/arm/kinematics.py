@@ -113,6 +113,36 @@ def frame_jacobian(p, joint: int, oR, op, axes, idx_v, support, J):  # pragma: n
 
 
 @numba.njit(cache=True)
+def fastest_capsule_end(oR, op, axes, parent, idx_v, cap_joint, p0, p1, qdot):  # pragma: no cover - compiled
+    """The fastest speed [m/s] of the capsules' axis end points (``p0``, ``p1``, each fixed to
+    ``cap_joint``) at ``qdot``: every joint frame's angular velocity ``w_j = w_parent + a_j
+    qdot_j`` and its origin's velocity ``v_j = v_parent + w_parent x (o_j - o_parent)``, then
+    ``v_p = v_j + w_j x (p - o_j)`` (the speed ``J_p qdot`` of ``frame_jacobian``, in one pass)."""
+    nj = axes.shape[0]
+    w, v = np.zeros((nj, 3)), np.zeros((nj, 3))
+    for j in range(1, nj):
+        pj = parent[j]
+        ax, ay, az = _world_axis(oR, axes, j)
+        s = qdot[idx_v[j]]
+        rx, ry, rz = op[j, 0] - op[pj, 0], op[j, 1] - op[pj, 1], op[j, 2] - op[pj, 2]
+        v[j, 0] = v[pj, 0] + w[pj, 1] * rz - w[pj, 2] * ry
+        v[j, 1] = v[pj, 1] + w[pj, 2] * rx - w[pj, 0] * rz
+        v[j, 2] = v[pj, 2] + w[pj, 0] * ry - w[pj, 1] * rx
+        w[j, 0], w[j, 1], w[j, 2] = w[pj, 0] + ax * s, w[pj, 1] + ay * s, w[pj, 2] + az * s
+    fastest = 0.0
+    for c in range(cap_joint.shape[0]):
+        j = cap_joint[c]
+        for end in range(2):
+            p = p0[c] if end == 0 else p1[c]
+            rx, ry, rz = p[0] - op[j, 0], p[1] - op[j, 1], p[2] - op[j, 2]
+            vx = v[j, 0] + w[j, 1] * rz - w[j, 2] * ry
+            vy = v[j, 1] + w[j, 2] * rx - w[j, 0] * rz
+            vz = v[j, 2] + w[j, 0] * ry - w[j, 1] * rx
+            fastest = max(fastest, np.sqrt(vx * vx + vy * vy + vz * vz))
+    return fastest
+
+
+@numba.njit(cache=True)
 def drift_along(u, J, qdot):  # pragma: no cover - compiled
     """``u . (dJ/dt qdot)`` [m/s^2]: how fast the point of the frame Jacobian ``J`` (6, nv;
     ``frame_jacobian``'s, columns in the chain's order, a parent before its child) accelerates

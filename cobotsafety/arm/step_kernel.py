@@ -53,11 +53,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import arm_stop_time
+from cobotsafety.arm.braking import arm_stop_time, stop_distance
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
                                           LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY, SPEED_CUTS, VELOCITY,
                                           filter_rows)
-from cobotsafety.arm.kinematics import forward_kinematics, frame_jacobian, integrate, log3
+from cobotsafety.arm.kinematics import fastest_capsule_end, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.limitation_bounds import limitation_bounds
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
@@ -359,11 +359,18 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     if walk_m > 0.0:
         walk_m *= arm_stop_time(qdot_prev, qddot_prev, u_prev, acc, jerk, EE_AXIS_SHARE * ee_acc,
                                 EE_AXIS_SHARE * ee_jerk, dt_s)
+    # Metric limitations (zones, table, reach) are watched from ``activation_m``, or from as far
+    # as the plan needs to brake the arm's fastest capsule end (its speed now, at ``brake_share``
+    # of the hand's per-axis box) when that is farther: from 0.15 m the iiwa's hand driven down
+    # at 0.5 m/s had the last of its braking done beyond the limits (its plan brakes in 0.25 m).
+    fastest = fastest_capsule_end(oR, op, axes, parent, idx_v, cap_joint, p0, p1, qdot_prev)
+    metric_m = max(activation_m, stop_distance(fastest, 0.0, brake_share * EE_AXIS_SHARE * ee_acc,
+                                               brake_share * EE_AXIS_SHARE * ee_jerk, dt_s) + fastest * dt_s)
     m = 0
     for con in range(n_lim):
         kind = scene_i[con, 0]
         m = kind_rows(kind, reals[con], scene_i[con, 1], con, kin, hum,
-                      reals[con, 1] + walk_m if kind == human_kind.KIND else activation_m, out, m,
+                      reals[con, 1] + walk_m if kind == human_kind.KIND else metric_m, out, m,
                       before[before_start[con]:before_start[con + 1]])
     is_human = np.zeros(m, dtype=np.bool_)
     separation = np.full(m, np.inf)  # the human rows' capsule distance [m]
