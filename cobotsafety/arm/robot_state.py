@@ -92,9 +92,13 @@ class RobotState:
     def point_jacobian(self, capsule_index: int, p_world: np.ndarray) -> np.ndarray:
         """Translation Jacobian (3, nv) of the point ``p_world`` fixed to a capsule's link
         (pinocchio's, for readers outside the compiled step)."""
-        joint = int(self.capsule_joint_ids[capsule_index])
-        data = self.data
-        J = pin.getJointJacobian(self.model, data, joint, pin.LOCAL_WORLD_ALIGNED)
-        r = p_world - data.oMi[joint].translation
-        skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
-        return J[:3] - skew @ J[3:]
+        return point_jacobian(self.model, self.data, int(self.capsule_joint_ids[capsule_index]), p_world)
+
+
+def point_jacobian(model: pin.Model, data: pin.Data, joint: int, p_world: np.ndarray) -> np.ndarray:
+    """Translation Jacobian (3, nv) of the point ``p_world`` fixed to ``joint``'s link, from
+    ``data`` after ``pin.computeJointJacobians`` at the configuration in question."""
+    J = pin.getJointJacobian(model, data, joint, pin.LOCAL_WORLD_ALIGNED)
+    r = p_world - data.oMi[joint].translation
+    skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+    return J[:3] - skew @ J[3:]

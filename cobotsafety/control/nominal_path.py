@@ -8,6 +8,7 @@ pose, return home. ``hold(p)``: experiment 2, the robot keeps its home until ``u
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
 
@@ -37,6 +38,7 @@ class NominalPath:
         self._lengths = np.linalg.norm(segments, axis=1)
         self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
         self._cumulative_list = self._cumulative.tolist()  # searched once per step (bisect: no array call)
+        self._segments = segments  # (the differences ``point`` interpolates along)
         self._dwell_left = {i: float(d) for i, d in self.dwell_s.items()}
 
     @property
@@ -51,14 +53,15 @@ class NominalPath:
         s_m = min(max(s_m, 0.0), self._cumulative_list[-1])
         i = min(bisect_right(self._cumulative_list, s_m) - 1, len(self._lengths) - 1)
         t = (s_m - self._cumulative_list[i]) / max(float(self._lengths[i]), 1e-12)
-        return self.waypoints_m[i] + t * (self.waypoints_m[i + 1] - self.waypoints_m[i])
+        return self.waypoints_m[i] + t * self._segments[i]
 
     def advance(self, p_ee_m: np.ndarray, dt_s: float) -> np.ndarray:
         """Move the target along the path unless the end-effector lags; return the target."""
         self.t_s += dt_s
         if self.t_s < self.start_after_s:
             return self.point(self.s_m)
-        if np.linalg.norm(self.point(self.s_m) - p_ee_m) <= self.max_lag_m:
+        lag = self.point(self.s_m) - p_ee_m
+        if math.sqrt(lag.dot(lag)) <= self.max_lag_m:  # (np.linalg.norm's own arithmetic, without its checks)
             for i, left in self._dwell_left.items():
                 at = self._cumulative[i]
                 if left > 0 and self.s_m >= at - 1e-12:

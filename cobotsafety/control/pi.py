@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,12 +30,12 @@ class AntiWindupPI:
             self.integral = np.zeros_like(error)
         candidate = self.integral + error * dt_s
         output = self.kp_per_s * error + self.ki_per_s2 * candidate
-        norm = float(np.linalg.norm(output))
+        norm = math.sqrt(output.dot(output))  # (np.linalg.norm's own arithmetic, without its checks)
         self.saturated = norm > self.limit
         if self.saturated:
             # Conditional integration: keep the integral, saturate the output.
             output = self.kp_per_s * error + self.ki_per_s2 * self.integral
-            norm = float(np.linalg.norm(output))
+            norm = math.sqrt(output.dot(output))
             if norm > self.limit:
                 output = output * self.limit / norm
         else:

@@ -108,8 +108,11 @@ class PostureRecovery:
             qdot = self.gain_per_s * offset
             ratio = float(np.max(np.abs(qdot) / (self.speed_share * self.velocity_limit_rad_s)))
             return qdot / ratio if ratio > 1.0 else qdot
+        if not blocked:
+            self._restart(t_s, np.inf)
+            return None
         distance = float(np.linalg.norm(p_target_m - p_hand_m))
-        if not blocked or distance <= self.near_m:
+        if distance <= self.near_m:
             self._restart(t_s, np.inf)
             return None
         if self._target is None or float(np.linalg.norm(p_target_m - self._target)) > 1e-9 \

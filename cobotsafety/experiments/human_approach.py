@@ -165,12 +165,17 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
             else:  # the wearer's one-capsule fallback, or other people alone
                 one = plain
         true = truth.distance_m(*robot, truth_offset_s + t) if truth is not None else np.nan
-        for values, value in ((log.t_s, t), (log.seen_m, out.min_distance_m), (log.estimate_m, five),
-                              (log.one_capsule_m, one), (log.true_m, true), (log.p_ee_m, p_now),
-                              (log.v_ee_m_s, v_now), (log.v_att_m_s, v_att),
-                              (log.stopped, out.report.stopped), (log.protective, out.protective_stop),
-                              (log.q_rad, q_now)):
-            values.append(value)
+        log.t_s.append(t)
+        log.seen_m.append(out.min_distance_m)
+        log.estimate_m.append(five)
+        log.one_capsule_m.append(one)
+        log.true_m.append(true)
+        log.p_ee_m.append(p_now)
+        log.v_ee_m_s.append(v_now)
+        log.v_att_m_s.append(v_att)
+        log.stopped.append(out.report.stopped)
+        log.protective.append(out.protective_stop)
+        log.q_rad.append(q_now)
         if path.finished and np.linalg.norm(state.p_world_ee - end_point) < completion_tolerance_m:
             log.completion_s = t
             break

@@ -36,8 +36,10 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 from scipy.optimize import minimize
 
+from cobotsafety.arm.robot_state import point_jacobian
 from cobotsafety.experiments.approach_truth import TruthHuman
 from cobotsafety.geometry.capsule import capsule_distance
 
@@ -69,10 +71,13 @@ class Escape:
 
 class _Kinematics:
     """The robot's capsules (minus the base one) at any q, the separation's gradient, and the
-    robot's joint limits."""
+    robot's joint limits. The capsules and the hand's Jacobian are the compiled step's own
+    kinematics (``step_kernel.kinematics``, what ``ArmController.set_configuration`` reads,
+    without a step around them); the separation's gradient is pinocchio's."""
 
     def __init__(self, robot: str, capsules: str = "paper", skip_capsules: int = 1):
         from cobotsafety.arm.controller import ArmController
+        from cobotsafety.arm.step_kernel import unpack_robot
 
         self.arm = ArmController(robot, zones=[], capsules=capsules)
         self.state = self.arm.state
@@ -83,16 +88,29 @@ class _Kinematics:
         self.a_max = np.asarray(limits.acceleration_rad_s2, dtype=float)
         self.lower, self.upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
         self.ee_speed, self.ee_acc = float(limits.ee_speed_m_s), float(limits.ee_acceleration_m_s2)
+        (_, nv, ee_joint, jtype, parent, idx_q, idx_v, support, cap_joint, _, axes, placement_R, placement_t, ee_R,
+         ee_t, cap_p0l, cap_p1l, *_) = unpack_robot(self.arm.model.robot_i, self.arm.model.robot_f)
+        self._robot = (jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_joint, ee_R, ee_t,
+                       cap_joint, cap_p0l, cap_p1l, nv)
+        self._data = model.createData()
+
+    def _at(self, q: np.ndarray):
+        """``(J6 (6, nv), p0 (c, 3), p1 (c, 3))`` at ``q`` (finite, else ``ValueError``)."""
+        from cobotsafety.arm.step_kernel import kinematics
+
+        q = np.array(q, dtype=float).reshape(-1)
+        if q.shape != (self.state.model.nq,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"q must be {self.state.model.nq} finite numbers, got {q}")
+        _, _, _, _, J6, p0, p1 = kinematics(q, *self._robot)
+        return J6, p0, p1
 
     def capsules(self, q: np.ndarray):
-        self.arm.set_configuration(q)
-        s = self.state
-        return s.capsule_p0[self.skip:], s.capsule_p1[self.skip:], s.capsule_radius[self.skip:]
+        _, p0, p1 = self._at(q)
+        return p0[self.skip:], p1[self.skip:], self.state.capsule_radius[self.skip:]
 
     def hand_jacobian(self, q: np.ndarray) -> np.ndarray:
         """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
-        self.arm.set_configuration(q)
-        return self.state.J_ee.copy()
+        return self._at(q)[0][:3]
 
     def separation(self, q: np.ndarray, hp0, hp1, hr) -> tuple[float, np.ndarray]:
         """(separation [m], its gradient d/dq (n,)) against human capsules (k, 3), (k, 3), (k,)."""
@@ -101,7 +119,10 @@ class _Kinematics:
         c, h = np.unravel_index(int(np.argmin(d)), d.shape)
         gap = pa[c, h] - pb[c, h]
         u = gap / max(float(np.linalg.norm(gap)), 1e-12)
-        return float(d[c, h]), u @ self.state.point_jacobian(self.skip + int(c), pa[c, h])
+        model = self.state.model
+        pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
+        joint = int(self.state.capsule_joint_ids[self.skip + int(c)])
+        return float(d[c, h]), u @ point_jacobian(model, self._data, joint, pa[c, h])
 
 
 def _hat_integral(t: np.ndarray, centre: float, half_width: float) -> np.ndarray:
