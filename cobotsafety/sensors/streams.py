@@ -101,7 +101,8 @@ class VectorStream:
     def _visible(self, until_s: float | None) -> int:
         if until_s is None or (self._n and until_s >= self._t[self._n - 1]):
             return self._n
-        return int(np.searchsorted(self._t[: self._n], until_s, side="right"))
+        # (the array's method: the np.searchsorted wrapper costs a microsecond more, per sample)
+        return int(self._t[: self._n].searchsorted(until_s, side="right"))
 
     def newest_s(self, until_s: float | None = None) -> float:
         """Stamp of the newest visible sample [s]; -inf when there is none."""
@@ -122,7 +123,7 @@ class VectorStream:
         t = self._t[:n]
         if t_s >= t[n - 1]:
             return n - 1, n - 1, 0.0  # the newest sample held (the live case)
-        k = int(np.searchsorted(t, t_s, side="right"))
+        k = int(t.searchsorted(t_s, side="right"))
         if k == 0:
             return 0, 0, 0.0
         if k == n or t[k] - t[k - 1] > self.stale_after_s:  # never interpolate across a gap
