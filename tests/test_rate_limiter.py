@@ -159,3 +159,14 @@ def test_a_measured_state_beyond_a_joint_limit_is_kept_where_it_is():
     np.testing.assert_allclose(arm.state.p_world_ee, data.oMf[arm.model.ee_frame_id].translation, atol=1e-12)
     arm.step(np.zeros(3), 1e-3, "anticipative")
     assert arm.model.upper[1] < arm.state.q[1] < q[1]
+
+
+def test_a_command_of_the_wrong_size_is_refused_in_one_line():
+    """The compiled rule reads nv entries of each vector: a shorter one is a clear error, never
+    a read past its end."""
+    limits = RobotModel.load("panda", "paper").limits
+    n = limits.velocity_rad_s.size
+    with pytest.raises(ValueError, match=r"qdot_last must have shape \(7,\)"):
+        limit_rate(limits, np.zeros(n), np.zeros(n - 1), np.zeros(n), 1e-3)
+    with pytest.raises(ValueError, match="qdot_commanded"):
+        limit_rate(limits, np.zeros((n, 1)), np.zeros(n), np.zeros(n), 1e-3)

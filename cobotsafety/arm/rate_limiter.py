@@ -67,10 +67,13 @@ def limit_rate(limits: MotionLimits, qdot_commanded: np.ndarray, qdot_last: np.n
                dt_s: float) -> np.ndarray:
     """The joint velocity (nv,) [rad/s] the rate limiter lets through after ``qdot_last`` (nv,)
     [rad/s] and ``qddot_last`` (nv,) [rad/s²] over ``dt_s`` [s] (module docstring)."""
-    out = np.empty(len(limits.velocity_rad_s))
-    arrays = (qdot_commanded, qdot_last, qddot_last, limits.velocity_rad_s, limits.acceleration_rad_s2,
-              limits.jerk_rad_s3)
-    limit_rate_kernel(*(np.asarray(x, dtype=float) for x in arrays), float(dt_s), out)
+    nv = len(limits.velocity_rad_s)
+    arrays = [np.asarray(x, dtype=float) for x in (qdot_commanded, qdot_last, qddot_last)]
+    for name, array in zip(("qdot_commanded", "qdot_last", "qddot_last"), arrays):
+        if array.shape != (nv,):  # (the compiled rule reads nv entries of each)
+            raise ValueError(f"limit_rate: {name} must have shape ({nv},), got {array.shape}")
+    out = np.empty(nv)
+    limit_rate_kernel(*arrays, limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3, float(dt_s), out)
     return out
 
 
