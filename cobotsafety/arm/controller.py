@@ -303,8 +303,7 @@ class ArmController:
         """``report`` (a step of this arm) slides on a joint limit and on no person's row: the
         posture's deadlock (``control.recovery``) rather than a person in the way."""
         owners = report.binding_owners
-        human = 1 + (self.reach is not None) + (self.table is not None) + len(self.zones)  # (``limitations``' last)
-        return 0 in owners and human not in owners
+        return 0 in owners and len(self.limitations) - 1 not in owners
 
     def _scene(self):
         """The packed scene, packed again when a zone is added, replaced or removed, or the
