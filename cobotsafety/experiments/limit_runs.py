@@ -4,8 +4,9 @@ Scripted runs of one robot (``--robot``, default panda) at one control period (`
 1 ms), each measured by ``experiments.motion_ratios`` (the commanded joint path by backward
 differences from rest, against ``assets/limits/robot_limits.toml``):
 
-* ``drag-turns``: hand drags at 0.25 m/s whose direction changes every 0.7 s (seeded);
-* ``drag-release``: 0.4 s drags at 0.5 m/s, each followed by a 0.4 s release (the arm holds);
+* ``drag-turns``: hand drags at 0.25 m/s whose direction changes every 0.7 s (seeded: 0);
+* ``drag-release``: 0.4 s drags at 0.5 m/s, each followed by a 0.4 s release (the arm holds;
+  seeded: 1);
 * ``joint-<name>-<end>``: from a pose 0.3 rad inside that joint's limit (or the nearest pose
   toward it from home that meets every other limitation), the hand dragged along the direction
   that joint's motion toward the limit moves it, for every limited joint and both ends;
@@ -26,6 +27,11 @@ velocity and acceleration against their limits.
 --spread`` (default 1 %; odd N: ``--dt`` itself in the middle) and ends the table with how many
 periods gave up smoothness: a filter that holds the limits at exactly 1 ms may not 1 % off it
 (docs/motion_limits.md), and a real controller's period is measured, not exact.
+
+``--drag-seeds N`` runs each hand drag with N seeds (``drag-turns-seed0`` ... and
+``drag-release-seed1`` ..., the default ones first) and ends the table with how many drags gave up
+smoothness: two seeded drags are two samples of the user's hand, and a filter that holds the
+limits on them may not on others (docs/motion_limits.md).
 """
 
 from __future__ import annotations
@@ -155,19 +161,34 @@ def _start_near(fresh, model, iq: int, upper: bool, dt_s: float):
     return fresh()
 
 
-def scripted_runs(robot: str, dt_s: float) -> list[LimitRun]:
-    """Every scripted run of ``robot`` (hand drags, joint limits, table, reach, zone, invariant)."""
+DRAGS = (("drag-turns", drag_turns, 0), ("drag-release", drag_release, 1))
+"""The hand drags: run name, commands, default seed."""
+
+
+def drag_runs(robot: str, dt_s: float, drag_seeds: int = 1) -> list[LimitRun]:
+    """The hand drags of ``robot``, each with ``drag_seeds`` seeds from its default one (more
+    than one: the seed in the run's name)."""
     from cobotsafety.arm.controller import ArmController
 
     runs = []
+    for name, commands, first in DRAGS:
+        for seed in range(first, first + drag_seeds):
+            c = ArmController(robot)
+            runs.append(_measure(name if drag_seeds == 1 else f"{name}-seed{seed}", c, commands(c, dt_s, seed=seed),
+                                 dt_s))
+    return runs
+
+
+def scripted_runs(robot: str, dt_s: float, drag_seeds: int = 1) -> list[LimitRun]:
+    """Every scripted run of ``robot`` (hand drags, joint limits, table, reach, zone, invariant);
+    the hand drags as ``drag_runs``."""
+    from cobotsafety.arm.controller import ArmController
 
     def fresh():
         return ArmController(robot)
 
+    runs = drag_runs(robot, dt_s, drag_seeds)
     c = fresh()
-    runs.append(_measure("drag-turns", c, drag_turns(c, dt_s), dt_s))
-    c = fresh()
-    runs.append(_measure("drag-release", c, drag_release(c, dt_s), dt_s))
     model = c.model
     for (iq, iv), name in zip(model.limited, model.limited_names):
         for upper in (False, True):
@@ -231,6 +252,18 @@ def period_summary(rows: list[dict]) -> str:
             f"{len(bad)} of {len(counted)}" + (f" ({detail})" if detail else ""))
 
 
+def drag_summary(rows: list[dict]) -> str:
+    """One line: how many hand-drag rows (``drag-*``) gave up smoothness, and the worst ratios
+    over the drags."""
+    drags = [row for row in rows if row["run"].startswith("drag-")]
+    bad = [row for row in drags if row["safety_over_smoothness_steps"]]
+    worst = {key: max((row[key] for row in drags), default=0.0)
+             for key in ("max_joint_acceleration_ratio", "max_joint_jerk_ratio")}
+    return (f"hand drags giving up smoothness: {len(bad)} of {len(drags)} "
+            f"({sum(row['safety_over_smoothness_steps'] for row in bad)} steps); worst joint acceleration "
+            f"{worst['max_joint_acceleration_ratio']:.4g}, jerk {worst['max_joint_jerk_ratio']:.4g} times the limits")
+
+
 def plot(run: LimitRun, controller_limits, out: Path) -> Path:
     """The run's joint velocity and acceleration, each over its limit (1 = the limit)."""
     import matplotlib
@@ -269,6 +302,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run at N periods spread over DT (1 +- SPREAD) (default 1: DT alone)")
     parser.add_argument("--spread", type=bounded_float(0.0, 0.1, "of DT"), default=0.01,
                         help="the periods' relative spread with --periods (default 0.01: 1 %%)")
+    parser.add_argument("--drag-seeds", type=positive_int, default=1, metavar="N",
+                        help="run each hand drag with N seeds (default 1: the default seed alone)")
     parser.add_argument("--no-recordings", action="store_true", help="skip paper 2's three recordings")
     parser.add_argument("--json", action="store_true", help="print a JSON list, one object per run")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR",
@@ -281,7 +316,7 @@ def run(args: argparse.Namespace) -> int:
     robot_spec(args.robot)
     runs = []
     for dt_s in periods(args.dt, args.periods, args.spread):
-        runs += scripted_runs(args.robot, dt_s)
+        runs += scripted_runs(args.robot, dt_s, args.drag_seeds)
         if not args.no_recordings:
             runs += recording_runs(args.robot, dt_s)
     rows = [r.as_json() for r in runs]
@@ -296,6 +331,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{row['run']:<28}" + (f"{row['dt_s'] * 1e3:>12.6g}" if several else "") + cells)
         if several:
             print(period_summary(rows))
+        if args.drag_seeds > 1:
+            print(drag_summary(rows))
     if args.out is not None:
         from cobotsafety.arm.controller import ArmController
 
