@@ -188,8 +188,7 @@ def scripted_runs(robot: str, dt_s: float, drag_seeds: int = 1) -> list[LimitRun
         return ArmController(robot)
 
     runs = drag_runs(robot, dt_s, drag_seeds)
-    c = fresh()
-    model = c.model
+    model = fresh().model
     for (iq, iv), name in zip(model.limited, model.limited_names):
         for upper in (False, True):
             c = _start_near(fresh, model, iq, upper, dt_s)
