@@ -388,3 +388,31 @@ def test_the_reported_joint_acceleration_ratio_is_the_steps_own():
         assert report.joint_acceleration_ratio == pytest.approx(measured, rel=1e-6, abs=1e-9)
         ratios.append(report.joint_acceleration_ratio)
     assert 0.1 < max(ratios) <= 1.0 + 1e-9
+
+
+def test_a_step_only_the_safety_net_scaled_is_counted_and_given_a_reason(monkeypatch):
+    """Item 4 of issue 20 (never silent): a step whose filter kept every row (level 0) but whose
+    integration the safety net scaled down gives up smoothness: it is counted and says why. The net
+    acts on no step of the suite's runs, so the kernel's output is forced here: the real step, then
+    its net scale set to 0.5 and its smoothness flag raised, as the kernel writes them."""
+    import cobotsafety.arm.controller as controller_module
+    from cobotsafety.arm.step_kernel import I_LEVEL, I_SMOOTHNESS
+
+    real_step, offsets = controller_module.arm_step, []
+
+    def net_scaled(*args):
+        status = real_step(*args)
+        out_f, out_i = args[-2], args[-1]
+        out_f[offsets[0][12]], out_i[I_SMOOTHNESS] = 0.5, 1
+        assert out_i[I_LEVEL] == 0  # the filter itself kept every row
+        return status
+
+    controller = ArmController("panda")
+    offsets.append(controller._offsets)
+    controller.step(np.array([0.1, 0.0, 0.0]), 1e-3)
+    assert controller.smoothness_steps == 0 and controller.last_report.reason == ""
+    monkeypatch.setattr(controller_module, "arm_step", net_scaled)
+    report = controller.step(np.array([0.1, 0.0, 0.0]), 1e-3)
+    assert report.safety_over_smoothness and controller.smoothness_steps == 1
+    assert report.extras["net_scale"] == 0.5
+    assert report.reason == "safety over smoothness: the safety net executed 0.5 of the step to keep a limitation"

@@ -474,6 +474,9 @@ class ArmController:
             detail = (f" ({relaxed_rows} row(s), at most {out_f[self._offsets[13]]:.3g} m/s: {self._name(worst)})"
                       if relaxed_rows and worst >= 0 else "")
             reason = reason or _LEVEL_REASONS[level] + detail
+        elif smoothness:  # the filter's command kept every row; integrated, it would have crossed one
+            reason = reason or (f"safety over smoothness: the safety net executed {out_f[self._offsets[12]]:.3g} "
+                                "of the step to keep a limitation")
         if protective:
             reason = reason or "SSM protective stop: the human is within the protective separation distance"
         if watchdog_stop:
