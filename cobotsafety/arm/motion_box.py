@@ -66,3 +66,26 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
             else:
                 lo[j] = min(max(lo[j], qdot_prev[j] - a_max * dt_s), hi[j])
 
+
+
+@numba.njit(cache=True)
+def within_hand_ball(dv, accel_prev, dt_s, ee_acc, ee_jerk):  # pragma: no cover - compiled
+    """Whether the hand's velocity change this step ``dv`` [m/s] (3,) (``J (qdot - qdot_prev)``,
+    the part the joints give) keeps its acceleration and jerk limits as the norms they are
+    (``EE_MOTION_SHARE`` of ``ee_acc``, ``ee_jerk``, within ``MOTION_MARGIN``; ``accel_prev``
+    the previous step's ``J qddot``), and leaves each axis within a jerk step of the per-axis
+    box (``EE_AXIS_SHARE``), so that the next step's box (``motion_box``: the acceleration's
+    window and the jerk's) still meets. The filter plans the hand within the box inscribed in
+    the ball; this is the rest of the ball, taken only where the box alone would make the
+    motion limits give way (``step_kernel.arm_step``)."""
+    acc2, jerk2 = 0.0, 0.0
+    axis = MOTION_MARGIN * EE_AXIS_SHARE * (ee_acc + ee_jerk * dt_s)
+    for r in range(3):
+        a = dv[r] / dt_s
+        if abs(a) > axis:
+            return False
+        acc2 += a * a
+        jerk = (a - accel_prev[r]) / dt_s
+        jerk2 += jerk * jerk
+    ball_acc, ball_jerk = MOTION_MARGIN * EE_MOTION_SHARE * ee_acc, MOTION_MARGIN * EE_MOTION_SHARE * ee_jerk
+    return acc2 <= ball_acc * ball_acc and jerk2 <= ball_jerk * ball_jerk

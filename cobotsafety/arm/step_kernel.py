@@ -55,15 +55,15 @@ import numpy as np
 
 from cobotsafety.arm.braking import arm_stop_time, stop_distance
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
-                                          LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY, SPEED_CUTS, VELOCITY,
-                                          filter_rows)
+                                          LEVEL_SMOOTHNESS, LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY,
+                                          SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import fastest_capsule_end, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.limitation_bounds import limitation_bounds
 from cobotsafety.arm.limitations import human as human_kind
 from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.motion_box import (EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN, ROUNDING_RAD_S, motion_box,
-                                        ramp_acceleration)
+                                        ramp_acceleration, within_hand_ball)
 from cobotsafety.arm.potential_field import field_push, field_velocity, limit_scale, weighted_least_norm
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import null_basis, task_mapping
@@ -549,6 +549,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     # the part the joints' acceleration gives it (J qddot, from the previous joint velocity and
     # acceleration seen through today's Jacobian); EE_MOTION_SHARE leaves the rest to the
     # motion's curvature (the executed acceleration is J qddot + dJ/dt qdot).
+    hand_rows = count
     ee_lo, ee_hi = np.empty(3), np.empty(3)
     motion_box(ee_velocity_prev, matvec(J, qddot_prev), np.full(3, EE_AXIS_SHARE * ee_acc),
                np.full(3, EE_AXIS_SHARE * ee_jerk), np.full(3, np.inf), dt_s, ee_lo, ee_hi)
@@ -583,6 +584,21 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             lead[r] = abs(ee_acceleration_prev[r]) / (2.0 * EE_AXIS_SHARE * ee_jerk * dt_s) + 1.0
     qdot, violation, level, rows = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap, ee_speed,
                                                ee_velocity_prev, lead, ahead_cap)
+    if level == LEVEL_SMOOTHNESS:
+        # The hand's box is its limits' ball inscribed: before the motion limits give way, the
+        # same solve without the box, kept if the hand stays within the ball (``within_hand_ball``);
+        # else the first solve again (its speed cuts were overwritten).
+        box = b[hand_rows:hand_rows + 6].copy()
+        b[hand_rows:hand_rows + 6] = -np.inf
+        qdot_ball, violation_ball, level_ball, rows_ball = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap,
+                                                                       ee_speed, ee_velocity_prev, lead, ahead_cap)
+        b[hand_rows:hand_rows + 6] = box
+        if level_ball == LEVEL_EXACT and within_hand_ball(matvec(J, qdot_ball - qdot_prev), matvec(J, qddot_prev),
+                                                          dt_s, ee_acc, ee_jerk):
+            qdot, violation, level, rows = qdot_ball, violation_ball, level_ball, rows_ball
+        else:
+            qdot, violation, level, rows = filter_rows(q0, B, N, b, ramp_b, group, count, J, cap, ee_speed,
+                                                       ee_velocity_prev, lead, ahead_cap)
     # The solver meets each row to its tolerance in its own units (rows scaled to unit length in
     # the task's coordinates), which through a task mapping near a singularity is up to ~1e-8
     # rad/s of a joint's velocity: a few 1e-4 of a jerk step at 1 kHz. The joints' speed limits
