@@ -67,7 +67,6 @@ def motion_box(qdot_prev, qddot_prev, acc, jerk, vel, dt_s, lo, hi):  # pragma: 
                 lo[j] = min(max(lo[j], qdot_prev[j] - a_max * dt_s), hi[j])
 
 
-
 @numba.njit(cache=True)
 def within_hand_ball(dv, accel_prev, dt_s, ee_acc, ee_jerk):  # pragma: no cover - compiled
     """Whether the hand's velocity change this step ``dv`` [m/s] (3,) (``J (qdot - qdot_prev)``,
