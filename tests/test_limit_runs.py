@@ -53,7 +53,6 @@ def test_releases_hold_within_the_limits(robot, pulls):
     assert run.safety_over_smoothness_steps == 0
 
 
-
 def test_a_drag_whose_box_contradicts_a_zone_keeps_the_limits_within_the_hands_ball():
     """The panda's drag-turns, seed 9, at 1 kHz: at 4.42 s joint 7's capsule slides on the sphere
     zone with joints 5 and 7 at their speed limits and joint 6 braking toward its upper limit; the
@@ -86,6 +85,7 @@ def test_a_drag_whose_box_contradicts_a_zone_keeps_the_limits_within_the_hands_b
     assert max(hand_acc) <= EE_MOTION_SHARE * limits.ee_acceleration_m_s2 * (1 + 1e-9)
     assert max(hand_jerk) <= EE_MOTION_SHARE * limits.ee_jerk_m_s3 * (1 + 1e-9)
     assert beyond_box >= 1
+
 
 def _drive_to_lower_limit(robot: str, joint: str):
     """``experiment limits``' run ``joint-<joint>-lower`` at 1 kHz."""
