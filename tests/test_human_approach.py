@@ -30,7 +30,8 @@ JSON_KEYS = {"scenario", "recording", "robot", "controller", "ssm", "min_distanc
              "min_distance_one_capsule_m", "min_distance_true_m", "estimate_error_at_closest_m", "closest_time_s",
              "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s", "stop_go_transitions",
              "protective_stop_time_s", "max_ee_accel_m_s2", "max_joint_velocity_ratio", "max_joint_acceleration_ratio",
-             "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "safety_over_smoothness_steps", "posture_recoveries"}
+             "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "max_ee_speed_ratio", "max_ee_acceleration_ratio",
+             "max_ee_jerk_ratio", "safety_over_smoothness_steps", "posture_recoveries"}
 
 
 @pytest.mark.parametrize("scenario", ["exp1", "exp2", "reach-over", "exp1-corner", "exp2-corner"])
@@ -105,7 +106,7 @@ def test_run_metrics_keep_the_one_capsule_fallback_apart_and_measure_the_error_a
     one_capsule[4:6] = [0.2, 0.25]  # the fat capsule: a 'jump' that must not reach 'estimate'
     true = np.linspace(1.0, 0.7, n)
     true[5] = 0.5  # the true closest moment is during the fallback
-    ratios = MotionRatios(0.1, 0.2, 0.3, None, None, None, 0, 0.4, 0.5, 0.6)
+    ratios = MotionRatios(0.1, 0.2, 0.3, None, None, None, 0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
     m = run_metrics(dt, t, np.linspace(1, 0.5, n), estimate, one_capsule, true, v, np.full((n, 3), 0.1),
                     np.zeros(n, bool), np.zeros(n, bool), ratios, None, 7)
     assert m.min_distance_estimate_m == pytest.approx(0.6) and m.min_distance_one_capsule_m == pytest.approx(0.2)
@@ -114,7 +115,8 @@ def test_run_metrics_keep_the_one_capsule_fallback_apart_and_measure_the_error_a
     assert m.stopped_time_s == pytest.approx(4 * dt) and m.stop_go_transitions == 3
     # the motion's ratios and the controller's count pass through unchanged
     assert (m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
-            m.max_ee_jerk_m_s3, m.safety_over_smoothness_steps) == (0.1, 0.2, 0.3, 0.6, 7)
+            m.max_ee_jerk_m_s3, m.max_ee_speed_ratio, m.max_ee_acceleration_ratio, m.max_ee_jerk_ratio,
+            m.safety_over_smoothness_steps) == (0.1, 0.2, 0.3, 0.6, 0.7, 0.8, 0.9, 7)
 
 
 @hsettings(max_examples=40, deadline=None)

@@ -133,6 +133,15 @@ def test_end_effector_cubic_from_rest():
     e = ee_derivatives(p, dt)
     np.testing.assert_allclose(e.jerk[:2], [c, 5 * c], rtol=1e-5)  # the start from rest: c, then 5c, then 6c
     assert r.as_json()["max_ee_jerk_m_s3"] == r.max_ee_jerk_m_s3
+    # the hand's ratios: each norm over the robot's own end-effector limit (LIMITS: 1 m/s, 2 m/s², 40 m/s³)
+    assert r.max_ee_speed_ratio == pytest.approx(r.max_ee_speed_m_s / 1.0, rel=1e-12)
+    assert r.max_ee_acceleration_ratio == pytest.approx(6 * 13.0 * (end - dt) / 2.0, rel=1e-6)
+    assert r.max_ee_jerk_ratio == pytest.approx(6 * 13.0 / 40.0, rel=1e-5)
+    other = motion_ratios(q, dt, fake_limits([2.0, 1.0, 3.0], [10.0, 5.0, 20.0], [500.0, 250.0, 1000.0],
+                                             ee=(2.0, 4.0, 78.0)), subtract, p_ee_path=p)
+    assert other.max_ee_jerk_ratio == pytest.approx(1.0, rel=1e-5)  # the limit, not a constant
+    assert other.max_ee_speed_ratio == pytest.approx(r.max_ee_speed_ratio / 2.0, rel=1e-12)
+    assert motion_ratios(q, dt, LIMITS, subtract).max_ee_jerk_ratio is None  # no hand path, no hand ratio
 
 
 @pytest.fixture(scope="module")
@@ -164,7 +173,8 @@ def test_continuous_joint_through_its_wrap_uses_the_tangent_difference(kinova):
 
 def ratios_tuple(r):
     return np.array([r.max_joint_velocity_ratio, r.max_joint_acceleration_ratio, r.max_joint_jerk_ratio,
-                     r.max_ee_speed_m_s, r.max_ee_acceleration_m_s2, r.max_ee_jerk_m_s3])
+                     r.max_ee_speed_m_s, r.max_ee_acceleration_m_s2, r.max_ee_jerk_m_s3,
+                     r.max_ee_speed_ratio, r.max_ee_acceleration_ratio, r.max_ee_jerk_ratio])
 
 
 @settings(max_examples=60, deadline=None)
@@ -177,7 +187,7 @@ def test_scaling_time_by_s_scales_the_ratios_by_inverse_powers_of_s(seed, scale,
     dt = float(rng.uniform(1e-3, 1e-2))
     base = motion_ratios(q, dt, LIMITS, subtract, p, from_rest=from_rest)
     slow = motion_ratios(q, dt * scale, LIMITS, subtract, p, from_rest=from_rest)
-    powers = np.array([1, 2, 3, 1, 2, 3])
+    powers = np.array([1, 2, 3, 1, 2, 3, 1, 2, 3])
     np.testing.assert_allclose(ratios_tuple(slow), ratios_tuple(base) / scale**powers, rtol=1e-9)
     # The worst step and joint do not depend on the clock, unless two candidates tie to rounding.
     v = joint_derivatives(q, dt, subtract, from_rest).velocity
@@ -189,9 +199,12 @@ def test_as_json_has_exactly_the_run_keys_and_serialises():
     q = np.zeros((5, 3))
     r = motion_ratios(q, 1e-3, LIMITS, subtract)
     assert list(r.as_json()) == ["max_joint_velocity_ratio", "max_joint_acceleration_ratio",
-                                 "max_joint_jerk_ratio", "max_ee_jerk_m_s3"]
+                                 "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "max_ee_speed_ratio",
+                                 "max_ee_acceleration_ratio", "max_ee_jerk_ratio"]
     assert json.loads(json.dumps(r.as_json())) == {"max_joint_velocity_ratio": 0.0, "max_joint_acceleration_ratio": 0.0,
-                                                   "max_joint_jerk_ratio": 0.0, "max_ee_jerk_m_s3": None}
+                                                   "max_joint_jerk_ratio": 0.0, "max_ee_jerk_m_s3": None,
+                                                   "max_ee_speed_ratio": None, "max_ee_acceleration_ratio": None,
+                                                   "max_ee_jerk_ratio": None}
 
 
 @pytest.mark.parametrize("dt", [0.0, -1e-3, math.nan, math.inf, True, "1e-3"])

@@ -17,6 +17,8 @@ Motion: ``peak_ee_speed_m_s``, ``max_ee_accel_m_s2`` (largest change of the exec
 between steps over the step), ``max_joint_velocity_ratio``, ``max_joint_acceleration_ratio``,
 ``max_joint_jerk_ratio`` (largest |value_i| / limit_i over the run, backward differences of the
 commanded joint positions from rest, ``experiments.motion_ratios``), ``max_ee_jerk_m_s3``,
+``max_ee_speed_ratio``, ``max_ee_acceleration_ratio``, ``max_ee_jerk_ratio`` (the same differences of
+the commanded hand path, their norms over the robot's end-effector limits),
 ``safety_over_smoothness_steps`` (steps where a limitation was kept over the robot's
 acceleration or jerk limits, counted by the controller). Task: ``completion_time_s``;
 ``stopped_time_s``, time held although the task wanted motion (the controller said stopped, or
@@ -75,6 +77,9 @@ class RunMetrics:
     max_joint_acceleration_ratio: float
     max_joint_jerk_ratio: float
     max_ee_jerk_m_s3: float | None
+    max_ee_speed_ratio: float | None
+    max_ee_acceleration_ratio: float | None
+    max_ee_jerk_ratio: float | None
     safety_over_smoothness_steps: int
 
     def as_dict(self, digits: int = 4) -> dict:
@@ -107,4 +112,5 @@ def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_e
                       float(held.sum() * dt_s), int(np.count_nonzero(np.diff(held.astype(int)))),
                       float(np.sum(protective) * dt_s), float(accel.max()) if accel.size else 0.0,
                       ratios.max_joint_velocity_ratio, ratios.max_joint_acceleration_ratio,
-                      ratios.max_joint_jerk_ratio, ratios.max_ee_jerk_m_s3, int(safety_over_smoothness_steps))
+                      ratios.max_joint_jerk_ratio, ratios.max_ee_jerk_m_s3, ratios.max_ee_speed_ratio,
+                      ratios.max_ee_acceleration_ratio, ratios.max_ee_jerk_ratio, int(safety_over_smoothness_steps))

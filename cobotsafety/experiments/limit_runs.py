@@ -18,10 +18,13 @@ differences from rest, against ``assets/limits/robot_limits.toml``):
   (``experiment human-approach``'s runs, anticipative) unless ``--no-recordings``.
 
 Each run prints ``run``, ``robot``, ``dt_s``, ``max_joint_velocity_ratio``,
-``max_joint_acceleration_ratio``, ``max_joint_jerk_ratio``, ``max_ee_jerk_m_s3`` and
-``safety_over_smoothness_steps`` (steps the controller kept a limitation over the acceleration
-or jerk limits; each counted, never silent). ``--out DIR`` plots the first run's joint
-velocity and acceleration against their limits.
+``max_joint_acceleration_ratio``, ``max_joint_jerk_ratio``, ``max_ee_jerk_m_s3``,
+``max_ee_speed_ratio``, ``max_ee_acceleration_ratio``, ``max_ee_jerk_ratio`` (the hand's norms
+over the robot's end-effector limits) and ``safety_over_smoothness_steps`` (steps the controller
+kept a limitation over the acceleration or jerk limits; each counted, never silent). The table
+ends with the runs that went over a limit (any ratio above 1) without a counted step: what the
+controller did not know it did. ``--out DIR`` plots the first run's joint velocity and
+acceleration against their limits.
 
 ``--periods N`` runs them all at N control periods spread evenly over ``--dt`` times ``1 +-
 --spread`` (default 1 %; odd N: ``--dt`` itself in the middle) and ends the table with how many
@@ -46,8 +49,10 @@ import numpy as np
 
 from cobotsafety.cli.arguments import bounded_float, positive_int
 
+RATIO_KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio",
+              "max_ee_speed_ratio", "max_ee_acceleration_ratio", "max_ee_jerk_ratio")
 KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio", "max_ee_jerk_m_s3",
-        "safety_over_smoothness_steps")
+        "max_ee_speed_ratio", "max_ee_acceleration_ratio", "max_ee_jerk_ratio", "safety_over_smoothness_steps")
 RECORDINGS = ("exp1", "exp2", "reach-over")
 #: The stress case: a person reaching over the table faster than the arm can brake.
 STRESS_RUN = "reach-over"
@@ -68,10 +73,8 @@ class LimitRun:
 
     def as_json(self) -> dict:
         r = self.ratios
-        values = {"max_joint_velocity_ratio": r.max_joint_velocity_ratio,
-                  "max_joint_acceleration_ratio": r.max_joint_acceleration_ratio,
-                  "max_joint_jerk_ratio": r.max_joint_jerk_ratio, "max_ee_jerk_m_s3": r.max_ee_jerk_m_s3}
         out = {"run": self.run, "robot": self.robot, "dt_s": self.dt_s}
+        values = r.as_json()
         out.update({k: (None if v is None else round(float(v), 4)) for k, v in values.items()})
         out["safety_over_smoothness_steps"] = int(self.safety_over_smoothness_steps)
         return out
@@ -220,7 +223,8 @@ def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
         run = run_approach("anticipative", scenario=scenario, robot=robot, dt_s=dt_s, loaded=load_scenario(scenario))
         m = run.metrics
         ratios = MotionRatios(m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
-                              None, None, None, 0, None, None, m.max_ee_jerk_m_s3)
+                              None, None, None, 0, None, None, m.max_ee_jerk_m_s3, m.max_ee_speed_ratio,
+                              m.max_ee_acceleration_ratio, m.max_ee_jerk_ratio)
         runs.append(LimitRun(scenario, robot, dt_s, ratios, m.safety_over_smoothness_steps,
                              run.log.commanded_path()[0]))
     return runs
@@ -261,6 +265,27 @@ def drag_summary(rows: list[dict]) -> str:
     return (f"hand drags giving up smoothness: {len(bad)} of {len(drags)} "
             f"({sum(row['safety_over_smoothness_steps'] for row in bad)} steps); worst joint acceleration "
             f"{worst['max_joint_acceleration_ratio']:.4g}, jerk {worst['max_joint_jerk_ratio']:.4g} times the limits")
+
+
+def over_summary(runs: list[LimitRun]) -> str:
+    """One line: how many runs went over a limit (a ratio above ``OVER_LIMIT_RATIO``, before the
+    JSON's rounding) without a step the controller counted, and the worst such ratio with its run."""
+    from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO
+
+    silent = []
+    for run in runs:
+        if run.safety_over_smoothness_steps:
+            continue
+        ratios = run.ratios.as_json()
+        over = [(ratios[key], key) for key in RATIO_KEYS if ratios[key] is not None and ratios[key] > OVER_LIMIT_RATIO]
+        if over:
+            silent.append((*max(over), run.run, run.dt_s))
+    line = f"runs over a limit without a counted step: {len(silent)} of {len(runs)}"
+    if silent:
+        value, key, name, dt_s = max(silent)
+        line += f" (worst: {key.replace('max_', '').replace('_ratio', '')} {value:.4g} times the limit in {name}"
+        line += f" at {dt_s * 1e3:.6g} ms)" if len({run.dt_s for run in runs}) > 1 else ")"
+    return line
 
 
 def plot(run: LimitRun, controller_limits, out: Path) -> Path:
@@ -328,6 +353,7 @@ def run(args: argparse.Namespace) -> int:
         for row in rows:
             cells = "".join(f"{'-' if row[k] is None else row[k]:>22}" for k in KEYS)
             print(f"{row['run']:<28}" + (f"{row['dt_s'] * 1e3:>12.6g}" if several else "") + cells)
+        print(over_summary(runs))
         if several:
             print(period_summary(rows))
         if args.drag_seeds > 1:

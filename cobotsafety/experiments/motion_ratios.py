@@ -20,7 +20,8 @@ a run that jumps to speed in its first step is charged for that jump. With ``fro
 only differences inside the run count (velocities from step 1, accelerations from step 2, jerks
 from step 3), for a window cut out of a longer run. The end-effector's speed, acceleration and
 jerk are the norms of the same differences of ``p_ee_path`` (libfranka limits the norm of the
-translational part).
+translational part), and their ratios are those norms over the robot's end-effector limits
+(``MotionLimits.ee_*``): a hand that breaks its own limits is reported as a joint that does.
 
 For a path sampled from a cubic ``q(t) = c0 + c1 t + c2 t² + c3 t³`` these differences are
 exact polynomials: ``v_k = c1 + c2 (2 t_k - dt) + c3 (3 t_k² - 3 t_k dt + dt²)``,
@@ -110,7 +111,8 @@ class MotionRatios:
     Ratios are ``max over steps and joints of |value| / limit``; each ``*_at`` is the
     ``(step, joint)`` of that worst value, step ``k`` being the one from sample ``k-1`` to ``k``.
     ``steps_over_acceleration_limit`` counts steps with any joint's acceleration ratio above
-    ``OVER_LIMIT_RATIO``. End-effector values are ``None`` without ``p_ee_path``.
+    ``OVER_LIMIT_RATIO``. End-effector values (norms, and the ``max_ee_*_ratio`` of each over the
+    robot's end-effector limit) are ``None`` without ``p_ee_path``.
     """
 
     max_joint_velocity_ratio: float
@@ -123,13 +125,19 @@ class MotionRatios:
     max_ee_speed_m_s: float | None = None
     max_ee_acceleration_m_s2: float | None = None
     max_ee_jerk_m_s3: float | None = None
+    max_ee_speed_ratio: float | None = None
+    max_ee_acceleration_ratio: float | None = None
+    max_ee_jerk_ratio: float | None = None
 
     def as_json(self) -> dict:
         """The keys a run's JSON object carries (``None`` -> null)."""
         return {"max_joint_velocity_ratio": self.max_joint_velocity_ratio,
                 "max_joint_acceleration_ratio": self.max_joint_acceleration_ratio,
                 "max_joint_jerk_ratio": self.max_joint_jerk_ratio,
-                "max_ee_jerk_m_s3": self.max_ee_jerk_m_s3}
+                "max_ee_jerk_m_s3": self.max_ee_jerk_m_s3,
+                "max_ee_speed_ratio": self.max_ee_speed_ratio,
+                "max_ee_acceleration_ratio": self.max_ee_acceleration_ratio,
+                "max_ee_jerk_ratio": self.max_ee_jerk_ratio}
 
 
 def _worst(values: np.ndarray, limit: np.ndarray, first_step: int) -> tuple[float, tuple[int, int], np.ndarray]:
@@ -156,10 +164,12 @@ def motion_ratios(q_path, dt_s: float, limits: MotionLimits,
     a_ratio, a_at, a_all = _worst(d.acceleration, limits.acceleration_rad_s2, d.acceleration_first_step)
     j_ratio, j_at, _ = _worst(d.jerk, limits.jerk_rad_s3, d.jerk_first_step)
     over = int(np.count_nonzero(np.any(a_all > OVER_LIMIT_RATIO, axis=1)))
-    ee = (None, None, None)
+    ee = ee_ratios = (None, None, None)
     if p_ee_path is not None:
         e = ee_derivatives(p_ee_path, dt_s, from_rest)
         if len(e.velocity) != len(d.velocity):
             raise ValueError(f"p_ee_path has {len(e.velocity) + 1} samples, q_path {len(d.velocity) + 1}")
         ee = tuple(float(np.linalg.norm(x, axis=1).max()) for x in (e.velocity, e.acceleration, e.jerk))
-    return MotionRatios(v_ratio, a_ratio, j_ratio, v_at, a_at, j_at, over, *ee)
+        ee_ratios = tuple(value / limit for value, limit in
+                          zip(ee, (limits.ee_speed_m_s, limits.ee_acceleration_m_s2, limits.ee_jerk_m_s3)))
+    return MotionRatios(v_ratio, a_ratio, j_ratio, v_at, a_at, j_at, over, *ee, *ee_ratios)
