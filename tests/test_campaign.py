@@ -308,6 +308,13 @@ def test_the_summary_counts_what_each_person_gave():
                for r, k, n in zip(rows, (0, 3, 0, 1, 0, 2), (0, 2, 0, 0, 0, 0))]
     (s,) = summarise(limited)
     assert (s["plant"], s["people_rate_limited"], s["people_with_safety_over_smoothness"]) == ("rate-limited", 3, 1)
+    assert (s["max_ee_acceleration_ratio"], s["people_over_hand_limits"]) == (None, None)  # not kept then
+    hands = [dict(r, max_ee_acceleration_ratio=a, max_ee_jerk_ratio=j)
+             for r, a, j in zip(limited, (0.9, 1.7, OVER_LIMIT, 0.5, 0.2, 0.95), (0.9, 0.8, 0.7, OVER_LIMIT + 1e-6, 0.1, 1.0))]
+    (s,) = summarise(hands)
+    assert (s["max_ee_acceleration_ratio"], s["people_over_hand_limits"]) == (1.7, 2)  # person 1's acceleration, 3's jerk
+    (s,) = summarise(hands[:5] + [dict(hands[5], max_ee_jerk_ratio=None)])
+    assert s["people_over_hand_limits"] is None  # one person unknown: the count is unknown
 
 
 @pytest.mark.parametrize("robot, person", [("iiwa", 5), ("panda", 5)])

@@ -30,7 +30,7 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "escape_after_approach_onset", "approach_onset_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
                "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps",
-               "safety_over_smoothness_steps")
+               "safety_over_smoothness_steps", "max_ee_acceleration_ratio", "max_ee_jerk_ratio")
 #: How the arm follows the controller's command: through the robot's rate limiter
 #: (``rate-limited``, closed loop: ``arm.rate_limiter``; the default: a real arm does not follow a
 #: command beyond its motion limits), or exactly (``ideal``).
@@ -170,5 +170,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "posture_recoveries": log.posture_recoveries, "plant": plant,
             "rate_limited_steps": log.rate_limited_steps,
             "safety_over_smoothness_steps": m.safety_over_smoothness_steps,
+            "max_ee_acceleration_ratio": round(m.max_ee_acceleration_ratio, 4),
+            "max_ee_jerk_ratio": round(m.max_ee_jerk_ratio, 4),
         })
     return results

@@ -23,7 +23,11 @@ limiter changed (with it, the acceleration ratios are of the motion the arm made
 limiter also changes commands within the limits: its speed-dependent acceleration bound, linear
 in the speed left, is stricter than the jerk-limited ramp the filter plans with); *people with
 safety over smoothness*: whose filter commanded beyond the motion limits at least once to keep a
-limitation (the filter's own count, ``StepReport.safety_over_smoothness``).
+limitation (the filter's own count, ``StepReport.safety_over_smoothness``); *people over the
+hand's limits*: whose commanded hand path went above the robot's end-effector acceleration or jerk
+limit (``max_ee_acceleration_ratio``, ``max_ee_jerk_ratio`` above ``OVER_LIMIT``; the rate limiter
+bounds the joints, not the hand). Results from before a quantity was kept give ``None`` for it:
+unknown, not 0.
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_9
                "breaches_with_escape_after_detection", "breaches_with_escape_after_approach_onset",
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
                "max_joint_acceleration_ratio", "people_over_acceleration_limit", "people_with_posture_recovery",
-               "plant", "people_rate_limited", "people_with_safety_over_smoothness")
+               "plant", "people_rate_limited", "people_with_safety_over_smoothness", "max_ee_acceleration_ratio",
+               "people_over_hand_limits")
 #: A run's largest joint acceleration ratio counts as over the limit above this (the filter plans
 #: within ``MOTION_MARGIN`` of the limits; finite differences of a kept run give at most 1.0000).
 OVER_LIMIT = 1.001
@@ -64,6 +69,8 @@ def summarise(results: list[dict]) -> list[dict]:
         true = np.array([r["true_min_distance_m"] for r in rows if r["true_min_distance_m"] is not None], float)
         breaches = sum(bool(r["breach"]) for r in rows)
         lost = np.array([r["time_lost_s"] for r in rows if r["time_lost_s"] is not None], float)
+        hand = all(r.get("max_ee_acceleration_ratio") is not None and r.get("max_ee_jerk_ratio") is not None
+                   for r in rows)
         out.append({
             "robot": robot, "controller": controller, "people": len(rows), "breaches": breaches,
             "breach_rate_upper_95": round(clopper_pearson_upper(breaches, len(rows)), 6),
@@ -82,6 +89,9 @@ def summarise(results: list[dict]) -> list[dict]:
             "people_rate_limited": sum(r.get("rate_limited_steps", 0) > 0 for r in rows),
             "people_with_safety_over_smoothness": None if any("safety_over_smoothness_steps" not in r for r in rows)
             else sum(r["safety_over_smoothness_steps"] > 0 for r in rows),  # (None: results from before it was kept)
+            "max_ee_acceleration_ratio": None if not hand else round(max(r["max_ee_acceleration_ratio"] for r in rows), 4),
+            "people_over_hand_limits": None if not hand else sum(
+                max(r["max_ee_acceleration_ratio"], r["max_ee_jerk_ratio"]) > OVER_LIMIT for r in rows),
         })
     return out
 
@@ -105,8 +115,8 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              "of which after the approach began | "
              "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
              "people over the accel limit | posture moves home | plant | people rate-limited | "
-             "people with safety over smoothness |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "people with safety over smoothness | max hand accel ratio | people over the hand's limits |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
@@ -116,7 +126,8 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
                      f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_over_acceleration_limit']} | "
                      f"{s['people_with_posture_recovery']} | {s['plant']} | {s['people_rate_limited']} | "
-                     f"{fmt(s['people_with_safety_over_smoothness'])} |")
+                     f"{fmt(s['people_with_safety_over_smoothness'])} | {fmt(s['max_ee_acceleration_ratio'])} | "
+                     f"{fmt(s['people_over_hand_limits'])} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]
     by_kind: dict[tuple, list[int]] = {}
     for r in results:
