@@ -363,3 +363,24 @@ def test_the_iiwas_default_release_keeps_its_hands_acceleration_limit():
     assert run.safety_over_smoothness_steps == 0  # the joints keep their limits: no step was counted
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9 and run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9
+
+
+def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypatch):
+    """``recording_runs`` measures paper 2's recordings on the commanded path their metrics
+    measured: every ratio the run reports equals the approach's own (``RunMetrics``), and the
+    run carries the whole ``MotionRatios`` (where the worst step was, how many steps were over),
+    not a copy of the metrics' few numbers."""
+    from cobotsafety.experiments.human_approach import load_scenario, run_approach
+
+    dt_s = 1 / 275
+    monkeypatch.setattr(limit_runs, "RECORDINGS", ("exp2",))
+    (run,) = limit_runs.recording_runs("panda", dt_s)
+    approach = run_approach("anticipative", scenario="exp2", robot="panda", dt_s=dt_s, loaded=load_scenario("exp2"))
+    metrics = approach.metrics
+    for key in (*limit_runs.RATIO_KEYS, "max_ee_jerk_m_s3"):
+        assert getattr(run.ratios, key) == getattr(metrics, key), key
+    assert run.safety_over_smoothness_steps == metrics.safety_over_smoothness_steps
+    r = run.ratios
+    assert r.max_joint_acceleration_at is not None and r.max_ee_acceleration_m_s2 is not None
+    assert r.max_joint_acceleration_ratio > 0.5  # the arm moved
+    assert np.array_equal(run.q_path, approach.log.commanded_path()[0])

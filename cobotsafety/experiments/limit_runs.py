@@ -215,18 +215,17 @@ def scripted_runs(robot: str, dt_s: float, drag_seeds: int = 1) -> list[LimitRun
 
 def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
     """Paper 2's recordings with the pick-and-place task (anticipative)."""
+    from cobotsafety.arm.robot_model import RobotModel
     from cobotsafety.experiments.human_approach import load_scenario, run_approach
-    from cobotsafety.experiments.motion_ratios import MotionRatios
+    from cobotsafety.experiments.motion_ratios import motion_ratios
 
+    model = RobotModel.load(robot)
     runs = []
     for scenario in RECORDINGS:
         run = run_approach("anticipative", scenario=scenario, robot=robot, dt_s=dt_s, loaded=load_scenario(scenario))
-        m = run.metrics
-        ratios = MotionRatios(m.max_joint_velocity_ratio, m.max_joint_acceleration_ratio, m.max_joint_jerk_ratio,
-                              None, None, None, 0, None, None, m.max_ee_jerk_m_s3, m.max_ee_speed_ratio,
-                              m.max_ee_acceleration_ratio, m.max_ee_jerk_ratio)
-        runs.append(LimitRun(scenario, robot, dt_s, ratios, m.safety_over_smoothness_steps,
-                             run.log.commanded_path()[0]))
+        q_path, p_path = run.log.commanded_path()  # (the path its metrics measured)
+        ratios = motion_ratios(q_path, dt_s, model.limits, model.difference, p_path)
+        runs.append(LimitRun(scenario, robot, dt_s, ratios, run.metrics.safety_over_smoothness_steps, q_path))
     return runs
 
 
