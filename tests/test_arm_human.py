@@ -568,18 +568,16 @@ def test_next_to_a_person_the_anticipative_arm_moves_out_of_the_way():
     assert evading.min() > HumanLimitation().critical_m
 
 
-def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_limits():
-    """ISO/TS 15066's separation: the robot must be able to stand still before the person,
-    still walking at it, reaches the limitation; it need not outrun them. The iiwa (1 m/s and
-    2 m/s^2 at the hand) is driven at a person walking at it at 1.6 m/s (ISO 13855's walking
-    speed) who stops inside the critical distance: on no step does it exceed its motion limits,
-    and it is no longer approaching when the separation reaches the critical distance. (The
-    old row asked the arm to retreat as fast as the person came: hundreds of steps beyond the
-    limits.)"""
+def _walker_at_the_iiwa():
+    """The iiwa (1 m/s and 2 m/s^2 at the hand), driven at a person walking at it at 1.6 m/s
+    (ISO 13855's walking speed) who stops inside the critical distance: ``(controller, step
+    reports, separations after each step, the arm's own closing over each step, the commanded
+    joint path, the hand's path)``."""
     controller = ArmController("iiwa", zones=[], settings=SLIDING)
     hand = controller.p_base_ee_m.copy()
     toward = np.array([0.0, 0.3, 0.0])  # the user drives the hand at the person
     reports, distances, approach = [], [], []
+    qs, ps = [controller.state.q.copy()], [controller.state.p_world_ee.copy()]
     for i in range(int(1.2 / DT)):
         gap = max(1.6 - 1.6 * i * DT, 0.05)
         walking = gap > 0.05
@@ -589,11 +587,44 @@ def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_lim
         reports.append(controller.step(toward, DT))
         distances.append(separation(controller, human))
         approach.append(before - distances[-1])  # the arm's own closing over the step [m]
+        qs.append(controller.state.q.copy())
+        ps.append(controller.state.p_world_ee.copy())
+    return controller, reports, distances, approach, np.array(qs), np.array(ps)
+
+
+def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_limits():
+    """ISO/TS 15066's separation: the robot must be able to stand still before the person,
+    still walking at it, reaches the limitation; it need not outrun them. The walker of
+    ``_walker_at_the_iiwa``: on no step does the arm exceed its joints' motion limits or count
+    one, and it is no longer approaching when the separation reaches the critical distance.
+    (The old row asked the arm to retreat as fast as the person came: hundreds of steps beyond
+    the limits.) The hand's own limit: the strict xfail below."""
+    from cobotsafety.experiments.motion_ratios import motion_ratios
+
+    controller, reports, distances, approach, q_path, _ = _walker_at_the_iiwa()
     assert not any(r.safety_over_smoothness for r in reports)
+    ratios = motion_ratios(q_path, DT, controller.model.limits, controller.model.difference)
+    assert ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9 and ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     first_inside = int(np.argmax(np.array(distances) < controller.human.critical_m))
     assert distances[first_inside] < controller.human.critical_m  # the person did get that close
     assert approach[first_inside] <= 1e-9  # and met an arm at rest (or leaving)
     assert max(approach) > 1e-4  # the arm did approach while that was safe
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the hand's box bounds J qddot; fleeing the walker the iiwa swings about its base at ~0.8 m/s "
+    "(joint a1 at its speed limit, the extended reach binding), a centripetal ~0.9 m/s^2 the box "
+    "does not see: the executed hand acceleration reaches 1.96 times the 2 m/s^2 in 128 steps, none "
+    "counted (docs/motion_limits.md, 'Where the hand's silent excess comes from')"))
+def test_a_person_faster_than_the_arm_meets_an_arm_within_its_hands_limits():
+    """The same walker: the executed hand path (its positions' differences, as ``experiment
+    limits`` measures it) keeps the iiwa's end-effector acceleration limit, or the steps that
+    do not are counted."""
+    from cobotsafety.experiments.motion_ratios import motion_ratios
+
+    controller, reports, _, _, q_path, p_path = _walker_at_the_iiwa()
+    ratios = motion_ratios(q_path, DT, controller.model.limits, controller.model.difference, p_path)
+    assert ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9 or any(r.safety_over_smoothness for r in reports)
 
 
 def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
