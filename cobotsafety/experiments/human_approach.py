@@ -183,16 +183,21 @@ def run_episode(controller, humans: HumanSeries, body, path, dt_s: float, end_s:
     return log
 
 
-def episode_metrics(log: EpisodeLog, dt_s: float, controller) -> RunMetrics:
-    """The run's metrics; the motion against the robot's own limits (``MotionLimits``)."""
+def episode_ratios(log: EpisodeLog, dt_s: float, controller):
+    """The run's motion against the robot's own limits (``MotionLimits``): ``MotionRatios``."""
     from cobotsafety.experiments.motion_ratios import motion_ratios
 
-    arm = controller.arm
+    model = controller.arm.model
     q, p_ee = log.commanded_path()  # from rest where the run began, not after its first step
-    ratios = motion_ratios(q, dt_s, arm.model.limits, arm.model.difference, p_ee)
+    return motion_ratios(q, dt_s, model.limits, model.difference, p_ee)
+
+
+def episode_metrics(log: EpisodeLog, dt_s: float, controller, ratios=None) -> RunMetrics:
+    """The run's metrics; ``ratios`` its ``episode_ratios`` (measured here when not given)."""
+    ratios = episode_ratios(log, dt_s, controller) if ratios is None else ratios
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
                        log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,
-                       arm.smoothness_steps)
+                       controller.arm.smoothness_steps)
 
 
 @dataclass
@@ -204,6 +209,8 @@ class ApproachRun:
     ssm: str
     metrics: RunMetrics
     log: EpisodeLog
+    ratios: object
+    """``MotionRatios``: the run's motion against the robot's limits (``metrics`` carries its ratios)."""
     critical_m: float = settings.CRITICAL_M
 
     @property
@@ -289,8 +296,9 @@ def run_approach(controller: str, ssm: str = "off", scenario: str = "exp1", robo
     end_s = min(timeout_s, duration_s if duration_s is not None else np.inf)
     log = run_episode(ctrl, loaded.series(dt_s), loaded.replay.recording.body, path, dt_s, end_s,
                       loaded.truth, loaded.replay.start_s)
+    ratios = episode_ratios(log, dt_s, ctrl)
     return ApproachRun(loaded.scenario, str(loaded.recording_path.name), robot, controller, ssm,
-                       episode_metrics(log, dt_s, ctrl), log)
+                       episode_metrics(log, dt_s, ctrl, ratios), log, ratios)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -48,11 +48,11 @@ from pathlib import Path
 import numpy as np
 
 from cobotsafety.cli.arguments import bounded_float, positive_int
+from cobotsafety.experiments.motion_ratios import JSON_KEYS
 
-RATIO_KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio",
-              "max_ee_speed_ratio", "max_ee_acceleration_ratio", "max_ee_jerk_ratio")
-KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio", "max_ee_jerk_m_s3",
-        "max_ee_speed_ratio", "max_ee_acceleration_ratio", "max_ee_jerk_ratio", "safety_over_smoothness_steps")
+#: A run's ratios to the robot's limits (joints' and hand's); the table's columns and JSON keys.
+RATIO_KEYS = tuple(key for key in JSON_KEYS if key.endswith("_ratio"))
+KEYS = (*JSON_KEYS, "safety_over_smoothness_steps")
 RECORDINGS = ("exp1", "exp2", "reach-over")
 #: The stress case: a person reaching over the table faster than the arm can brake.
 STRESS_RUN = "reach-over"
@@ -215,17 +215,13 @@ def scripted_runs(robot: str, dt_s: float, drag_seeds: int = 1) -> list[LimitRun
 
 def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
     """Paper 2's recordings with the pick-and-place task (anticipative)."""
-    from cobotsafety.arm.robot_model import RobotModel
     from cobotsafety.experiments.human_approach import load_scenario, run_approach
-    from cobotsafety.experiments.motion_ratios import motion_ratios
 
-    model = RobotModel.load(robot)
     runs = []
     for scenario in RECORDINGS:
         run = run_approach("anticipative", scenario=scenario, robot=robot, dt_s=dt_s, loaded=load_scenario(scenario))
-        q_path, p_path = run.log.commanded_path()  # (the path its metrics measured)
-        ratios = motion_ratios(q_path, dt_s, model.limits, model.difference, p_path)
-        runs.append(LimitRun(scenario, robot, dt_s, ratios, run.metrics.safety_over_smoothness_steps, q_path))
+        runs.append(LimitRun(scenario, robot, dt_s, run.ratios, run.metrics.safety_over_smoothness_steps,
+                             run.log.commanded_path()[0]))
     return runs
 
 

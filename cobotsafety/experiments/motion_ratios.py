@@ -130,14 +130,13 @@ class MotionRatios:
     max_ee_jerk_ratio: float | None = None
 
     def as_json(self) -> dict:
-        """The keys a run's JSON object carries (``None`` -> null)."""
-        return {"max_joint_velocity_ratio": self.max_joint_velocity_ratio,
-                "max_joint_acceleration_ratio": self.max_joint_acceleration_ratio,
-                "max_joint_jerk_ratio": self.max_joint_jerk_ratio,
-                "max_ee_jerk_m_s3": self.max_ee_jerk_m_s3,
-                "max_ee_speed_ratio": self.max_ee_speed_ratio,
-                "max_ee_acceleration_ratio": self.max_ee_acceleration_ratio,
-                "max_ee_jerk_ratio": self.max_ee_jerk_ratio}
+        """The keys a run's JSON object carries, ``JSON_KEYS`` (``None`` -> null)."""
+        return {key: getattr(self, key) for key in JSON_KEYS}
+
+
+#: The ``MotionRatios`` fields a run's JSON object carries, in its order.
+JSON_KEYS = ("max_joint_velocity_ratio", "max_joint_acceleration_ratio", "max_joint_jerk_ratio", "max_ee_jerk_m_s3",
+             "max_ee_speed_ratio", "max_ee_acceleration_ratio", "max_ee_jerk_ratio")
 
 
 def _worst(values: np.ndarray, limit: np.ndarray, first_step: int) -> tuple[float, tuple[int, int], np.ndarray]:
