@@ -344,9 +344,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         several = args.periods > 1
         print(f"{'run':<28}" + (f"{'dt [ms]':>12}" if several else "")
-              + "".join(f"{k.replace('max_', '').replace('_ratio', ''):>22}" for k in KEYS))
-        for row in rows:
-            cells = "".join(f"{'-' if row[k] is None else row[k]:>22}" for k in KEYS)
+              + "".join(f" {k.replace('max_', '').replace('_ratio', ''):>21}" for k in KEYS))
+        for row in rows:  # (a space before each column: a label wider than it stays apart)
+            cells = "".join(f" {'-' if row[k] is None else row[k]:>21}" for k in KEYS)
             print(f"{row['run']:<28}" + (f"{row['dt_s'] * 1e3:>12.6g}" if several else "") + cells)
         print(over_summary(runs))
         if several:
