@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import time
+import types
 import uuid
 
 import pytest
@@ -156,6 +157,53 @@ def test_a_non_finite_gizmo_pose_is_refused(demo, tab):
               "position": [float("nan"), 0.0, 0.0], "owner": ""})
     notified(tab, "Refused")
     assert not demo.loop.snapshot().dragging
+
+
+@pytest.mark.parametrize("position, wxyz, accepted", [
+    ([0.5, -0.2, 0.3], [1.0, 0.0, 0.0, 0.0], True),
+    ([access.MAX_GIZMO_M, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], True),
+    ([1.01 * access.MAX_GIZMO_M, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], False),  # far beyond any arm
+    ([0.0, -1e300, 0.0], [1.0, 0.0, 0.0, 0.0], False),
+    ([0.0, 0.0, float("inf")], [1.0, 0.0, 0.0, 0.0], False),
+    ([0.0, 0.0], [1.0, 0.0, 0.0, 0.0], False),
+    ([0.0, True, 0.0], [1.0, 0.0, 0.0, 0.0], False),
+    ("0,0,0", [1.0, 0.0, 0.0, 0.0], False),
+    ([0.0, 0.0, 0.0], [1.0, 0.0, float("nan"), 0.0], False),
+    ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], False),
+])
+def test_check_gizmo_takes_only_three_finite_near_coordinates_and_a_finite_quaternion(position, wxyz, accepted):
+    reason = access.check_gizmo(types.SimpleNamespace(position=position, wxyz=wxyz))
+    assert (reason == "") == accepted, reason
+
+
+def test_a_message_the_guard_cannot_judge_is_refused_not_applied(demo, tab, monkeypatch, caplog):
+    """A message whose check raises is refused (logged), never handed to viser."""
+    speed = demo.replay.speed
+    target = 2.0 if speed != 2.0 else 1.5
+
+    def cannot_judge(*args, **kwargs):
+        raise RuntimeError("cannot judge this message")
+
+    monkeypatch.setattr(demo.guard, "admit", cannot_judge)
+    with caplog.at_level(logging.ERROR, logger=access.logger.name):
+        tab.send(gui_update(demo.panel.speed, target))
+        wait_until(lambda: any("refused a malformed" in r.getMessage() for r in caplog.records),
+                   what="the refusal's log line")
+    time.sleep(0.5)
+    assert demo.replay.speed == speed and demo.panel.speed.value == speed
+    monkeypatch.undo()  # the same message, judged, is applied: the refusal above was the guard's
+    tab.send(gui_update(demo.panel.speed, target))
+    wait_until(lambda: demo.replay.speed == target, what=f"Speed {target}")
+    tab.send(gui_update(demo.panel.speed, speed))
+    wait_until(lambda: demo.replay.speed == speed, what=f"Speed {speed}")
+
+
+def test_a_tabs_own_scope_never_passes_a_file_on(demo):
+    """Files are the server scope's (a receiver or a refusal); a tab's own scope passes none of
+    a transfer's messages to viser's buffering, whoever sends them."""
+    for kind in (viser._messages.FileTransferStartUpload, viser._messages.FileTransferPart):
+        message = object.__new__(kind)
+        assert not demo.guard.admit(0, message, demo.server.gui, client_scope=True)
 
 
 @pytest.mark.parametrize("make, value, accepted", [

@@ -80,6 +80,38 @@ def test_jog_expires():
     np.testing.assert_allclose(loop.snapshot().v_sent_m_s, 0.0)
 
 
+def test_a_non_finite_jog_is_ignored_and_the_running_jog_goes_on():
+    loop = make_loop(jog_hold_s=0.5)
+    loop.jog(np.array([0.0, -0.05]))
+    for _ in range(20):
+        loop.step_once()
+    sent = loop.snapshot().v_sent_m_s.copy()
+    assert sent[1] < 0.0
+    for bad in ([np.nan, 0.0], [0.0, np.inf], [0.1, 0.0, 0.0]):
+        loop.jog(np.array(bad))
+        loop.step_once()
+        now = loop.snapshot().v_sent_m_s
+        assert np.all(np.isfinite(now)) and now[1] < 0.0, bad  # still the first jog
+
+
+@pytest.mark.parametrize("far_m", [3.0, 1e3])
+def test_a_gizmo_beyond_the_workspace_pulls_toward_its_point_on_the_sphere(far_m):
+    loop = make_loop()
+    radius = loop.settings.workspace_radius_m
+    assert far_m > radius
+    ee = np.asarray(loop.snapshot().p_base_ee_m, dtype=float)
+    side = np.array([-ee[1], ee[0], 0.0]) / np.linalg.norm(ee[:2])  # across the hand's direction
+    far = far_m * side
+    assert loop.set_gizmo_target(far)
+    v = np.zeros(3)
+    v_desired = loop.step_once().v_desired_m_s
+    v[:v_desired.shape[0]] = v_desired
+    unit = lambda x: x / np.linalg.norm(x)  # noqa: E731
+    toward = unit(radius * side - ee)
+    assert np.linalg.norm(unit(far - ee) - toward) > 0.02  # (the two points lie apart as seen from the hand)
+    assert np.allclose(unit(v), toward, atol=1e-9)
+
+
 def test_bad_method_is_refused():
     loop = make_loop()
     with pytest.raises(CobotSafetyError, match="method"):

@@ -127,6 +127,42 @@ def test_silent_imu_gives_one_capsule(recording):
     assert caps.radius_m[0] >= recording.body.one_capsule_radius_m
 
 
+def test_an_imu_just_past_its_threshold_gives_one_capsule(recording):
+    """The threshold itself, on both of the tracker's paths (the compiled fresh five capsules and
+    the readable one): an IMU a fifth past ``imu_stale_after_s`` is silent (one capsule, stale),
+    one a fifth within it is fresh."""
+    name = "forearm_right"
+    keep = recording.imu_t_s[name] <= 10.0
+    last = recording.imu_t_s[name][keep][-1]
+    silent = dataclasses.replace(
+        recording,
+        imu_t_s={**recording.imu_t_s, name: recording.imu_t_s[name][keep]},
+        imu_q_ref={**recording.imu_q_ref, name: recording.imu_q_ref[name][keep]},
+    )
+    replay = Replay(silent)
+    threshold = replay.tracker.policy.imu_stale_after_s
+    fresh = replay.capsules_at(last + 0.8 * threshold)
+    assert fresh.names == CAPSULE_NAMES_5 and not fresh.stale
+    late = replay.capsules_at(last + 1.2 * threshold)
+    assert late.names == CAPSULE_NAMES_1 and late.stale and name in late.reason
+
+
+def test_a_laser_silent_before_anyone_was_seen_is_a_stale_absence(recording):
+    """Nobody seen yet and the laser falls silent: "nobody in range" while its last scan is
+    fresh, then an absence flagged stale (the controller's watchdog stops the arm on it), never
+    a fresh "nobody"."""
+    t_cut = 0.5
+    assert not Replay(recording).capsules_at(t_cut).present  # (the person walks in later)
+    replay = Replay(cut_laser_after(recording, t_cut))
+    threshold = replay.tracker.policy.laser_stale_after_s
+    last = recording.laser_t_s[recording.laser_t_s <= t_cut][-1]
+    fresh = replay.capsules_at(last + 0.5 * threshold)
+    assert not fresh.present and not fresh.stale and fresh.reason == "nobody in range"
+    for t in (last + 1.2 * threshold, last + 1.0, last + 10.0):
+        caps = replay.capsules_at(t)
+        assert not caps.present and caps.stale and "laser silent" in caps.reason, t
+
+
 def test_laser_only_bag_gives_one_capsule_human(shared_data):
     replay = Replay.from_bag(shared_data / "leg_tracker" / "positive_2_extracted.bag")
     assert replay.duration_s > 0
