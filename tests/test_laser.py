@@ -55,6 +55,14 @@ def test_one_leg_hidden_gives_one_leg_and_a_torso_at_it():
     np.testing.assert_allclose(torsos_from_legs(legs), legs)
 
 
+def test_a_leg_pairs_with_at_most_one_other():
+    """Closest pairs first, each leg in one pair: the two legs 0.1 m apart are one person, the
+    leg 0.4 m from one of them (within the pairing distance) stands alone."""
+    legs = np.array([[0.5, 0.0], [0.0, 0.0], [0.1, 0.0]])
+    torsos = torsos_from_legs(legs)
+    np.testing.assert_allclose(torsos[np.argsort(torsos[:, 0])], [[0.05, 0.0], [0.5, 0.0]])
+
+
 def test_nobody_means_no_leg_and_no_torso():
     for scan in (render([]), render([], wall_y=1.0), render([], wall_y=0.5)):
         legs = detect_legs(scan)

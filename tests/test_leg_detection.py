@@ -171,6 +171,32 @@ def test_a_cluster_counts_with_a_cluster_worth_of_returns_in_front_of_the_backgr
         assert legs.shape == (expected, 2)
 
 
+def test_a_small_cluster_counts_when_most_of_its_returns_are_in_front_of_the_background():
+    """Fewer than MIN_CLUSTER_POINTS returns in front still count when they are most of the
+    cluster (a small, far leg); a minority does not."""
+    inc = math.radians(0.5)
+    wall = np.full(30, 4.0)
+    ranges = np.r_[wall, [1.0, 1.0, 1.02], wall]
+    for background_part, expected in (([4.0, 4.0, 1.02], 1), ([4.0, 1.0, 1.02], 0)):
+        background = np.r_[wall, background_part, wall]
+        scan = LaserScan(-inc * (ranges.size - 1) / 2, inc, 0.02, 20.0, ranges)
+        assert segment(scan).count == 3
+        legs = learned_legs(scan, 6.0, background, threshold_probability=-1.0)
+        assert legs.shape == (expected, 2), background_part
+
+
+@pytest.mark.parametrize("no_return", [np.inf, 0.0, -1.0])
+def test_a_background_beam_without_a_return_hides_nothing(no_return):
+    """A background beam that never returned (open space: +inf; 0 or less, as drivers write "no
+    return") removes nothing in front of it: the legs are those found without a background."""
+    scan = render([(x, y, 0.06) for x, y in LEGS], walls=(3.0,), noise=0.003)
+    near = lambda legs: np.sort(legs[np.hypot(legs[:, 0], legs[:, 1]) < 2.0], axis=0)  # noqa: E731 (the wall's own, without a background)
+    without = near(learned_legs(scan, 6.0))
+    background = np.where(np.isfinite(scan.ranges) & (scan.ranges > 2.5), scan.ranges, no_return)  # the wall
+    assert without.shape[0] == 2
+    np.testing.assert_allclose(near(learned_legs(scan, 6.0, background)), without)
+
+
 # --- Fail closed: input that would make the detector blind is refused, never "nobody". ---
 
 TWO_LEGS = render([(x, y, 0.06) for x, y in LEGS], walls=(3.0,), noise=0.003)
