@@ -274,6 +274,25 @@ def test_the_watchdog_stop_holds_the_arm_at_rest():
     assert max(np.linalg.norm(report.v_executed_m_s) for report in late) < 1e-3
 
 
+@pytest.mark.parametrize("stale", [True, False])
+def test_an_absence_the_sensors_cannot_vouch_for_stops_the_arm_a_fresh_nobody_does_not(stale):
+    """Nobody in the model: flagged stale (the laser silent, so nobody is *known* to be there),
+    the watchdog stops the arm once it is older than ``stop_after_s``, as for a person; a fresh
+    "nobody in range" lets it go on."""
+    watchdog = HumanWatchdog(grow_after_s=0.05, stop_after_s=0.5, growth_speed_m_s=2.0)
+    controller = ArmController("panda", watchdog=watchdog, zones=[])
+    reason = "laser silent: human position unknown" if stale else "nobody in range"
+    controller.set_human(HumanCapsules.absent(0.0, reason, stale=stale))
+    reports = [controller.step(np.array([0.05, 0.0, 0.0]), DT) for _ in range(int(0.7 / DT))]
+    early = [r for k, r in enumerate(reports) if (k + 1) * DT < watchdog.stop_after_s - 1e-9]
+    late = [r for k, r in enumerate(reports) if k * DT > watchdog.stop_after_s + 1e-9]
+    assert early and late and not any(r.stopped for r in early)
+    if stale:
+        assert all(r.stopped and "silent" in r.human_status for r in late)
+    else:
+        assert not any(r.stopped for r in late) and all(r.human_status == "" for r in late)
+
+
 def test_a_dropout_keeps_the_last_human_and_clear_human_forgets_it():
     controller = ArmController("panda")
     human = beside(controller)
