@@ -77,6 +77,23 @@ def test_feasible_sets_are_plain_slides():
         assert np.all(violation == 0.0)
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_command_is_relaxed_as_zero_with_a_warning(bad, caplog):
+    """As ``slide``: a NaN or inf command never reaches the solver; the answer is the zero
+    command's (finite), and the log says so once."""
+    rng = np.random.default_rng(14)
+    normals, bounds, _ = infeasible_problem(rng)
+    soft = bounds > 0.0  # the retreats give way
+    v_bad = np.array([0.1, bad, -0.2])
+    with caplog.at_level("WARNING", logger="cobotsafety.projection"):
+        v, violation = relax(v_bad, normals, bounds, soft)
+    expected, expected_violation = relax(np.zeros(3), normals, bounds, soft)
+    assert np.all(np.isfinite(v)) and np.all(np.isfinite(violation))
+    np.testing.assert_array_equal(v, expected)
+    np.testing.assert_array_equal(violation, expected_violation)
+    assert sum("not finite" in r.getMessage() or "NaN or inf" in r.getMessage() for r in caplog.records) == 1
+
+
 def test_contradicting_hard_rows_still_raise_and_shapes_are_checked():
     normals = np.array([[1.0, 0.0], [-1.0, 0.0]])
     with pytest.raises(InfeasibleConstraintsError):
