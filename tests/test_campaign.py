@@ -267,6 +267,37 @@ def test_an_escape_keeps_the_hand_within_its_own_limits():
     assert limited.best_min_distance_m < 0.095
 
 
+@pytest.mark.parametrize("lifted", ["acceleration", "hand"])
+def test_an_optimisers_answer_beyond_the_arms_limits_is_never_counted_an_escape(lifted, monkeypatch):
+    """The search checks every answer itself: SLSQP handed back the escape found with a limit
+    lifted (the two scenes above) once that limit holds again, and it is refused, not counted."""
+    from types import SimpleNamespace
+
+    from cobotsafety.tools.campaign import escape
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    if lifted == "acceleration":
+        truth, t_closest, critical = _truth(_ApproachingHuman(p_ee, 0.5, 0.1, 1.0)), 1.0, 0.08
+        a_max, ee_acc = kin.a_max, kin.ee_acc
+        kin.a_max, kin.ee_acc = a_max * 1e3, ee_acc * 1e3
+        beyond = escape_exists("iiwa", held, t, t_closest, truth, 0.0, critical_m=critical, kinematics=kin)
+        kin.a_max = a_max  # (the hand's limit stays lifted: the joints' acceleration alone must refuse it)
+    else:
+        truth, t_closest, critical = _truth(_ApproachingHuman(p_ee, 0.8, 0.1, 1.5)), 0.67, 0.1
+        kin.ee_speed, kin.ee_acc = 1e3, 1e3
+        beyond = escape_exists("iiwa", held, t, t_closest, truth, 0.0, critical_m=critical, kinematics=kin)
+        kin.ee_speed, kin.ee_acc = 1.0, 2.0
+    assert beyond.exists and beyond.witness_rad_s is not None
+    answer = np.concatenate([beyond.witness_rad_s.ravel(), [beyond.best_min_distance_m]])
+    monkeypatch.setattr(escape, "minimize", lambda *args, **kwargs: SimpleNamespace(x=answer.copy()))
+    refused = escape_exists("iiwa", held, t, t_closest, truth, 0.0, critical_m=critical, kinematics=kin)
+    assert not refused.exists and refused.best_min_distance_m < critical
+
+
 def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_approach():
     """One drawn person the anticipative iiwa breaches for (seed 0, person 124: walks in, stops,
     reaches at the arm): the searches from later starts are asked only when the earlier found an
