@@ -122,7 +122,9 @@ def test_the_recovery_ends_at_home_or_when_its_own_move_is_stuck():
     q = np.array([1.0, -0.5, 0.2])
     t, k = _stall(recovery, q)
     moving = q.copy()
-    while (out := recovery.command(t, moving, HAND, TARGET, blocked=True)) is not None:  # followed exactly
+    for _ in range(int(60.0 / DT_S)):  # (bounded: a recovery that never ends fails, not hangs)
+        if (out := recovery.command(t, moving, HAND, TARGET, blocked=True)) is None:  # followed exactly
+            break
         moving = moving + out * DT_S
         k += 1
         t = k * DT_S
@@ -131,7 +133,9 @@ def test_the_recovery_ends_at_home_or_when_its_own_move_is_stuck():
     stuck = _recovery()
     t, k = _stall(stuck, q)
     start = t
-    while stuck.command(t, q, HAND, TARGET, blocked=True) is not None:  # the posture never moves: given up
+    for _ in range(int(10 * stuck.stall_s / DT_S)):
+        if stuck.command(t, q, HAND, TARGET, blocked=True) is None:  # the posture never moves: given up
+            break
         k += 1
         t = k * DT_S
     assert t - start == pytest.approx(stuck.stall_s, abs=1.5 * DT_S) and not stuck.recovering
