@@ -79,6 +79,19 @@ def test_planar_and_stale_lines():
     assert stale[2] == "Person: <b>sensor stale</b>, laser 0.4 s old &lt;b&gt;"
 
 
+def test_the_watchdogs_word_and_the_acceleration_limit_are_shown():
+    """The controller being careful with an old human model, and a step whose motion the
+    acceleration or jerk limits shaped (issue 20 item 7), each say so on their line; a fresh
+    step says neither."""
+    careful = status_lines(facts(report(), human_present=True, distance_m=0.5,
+                                 careful="human model 0.12 s old: grown by 0.14 m <b>"))
+    assert careful[2] == "Person: <b>human model 0.12 s old: grown by 0.14 m &lt;b&gt;</b>"
+    limited = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=True))
+    assert limited[3].endswith(" · <b>acceleration-limited</b>")
+    fresh = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), human_present=True, distance_m=0.5))
+    assert "acceleration-limited" not in fresh[3] and fresh[2] == "Person: <b>500 mm</b> from the arm"
+
+
 def test_html_block_has_fixed_height_and_fixed_rows_whatever_the_text():
     short = status_html(("one",))
     long = status_html(tuple(f"line {i} " + "word " * 60 for i in range(9)))

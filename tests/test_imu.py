@@ -142,6 +142,22 @@ def test_one_capsule_contains_every_arm_pose(seed, heading_deg):
             assert point_segment_distance(p, a, b) + r <= radius + 1e-9
 
 
+@settings(max_examples=120, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-180, 180), st.floats(0.0, 0.3), st.floats(0.0, 0.3), st.floats(0.0, 0.4),
+       st.floats(0.0, 0.4), st.floats(0.0, 0.5), st.floats(0.1, 0.25), st.floats(0.02, 0.1))
+def test_one_capsule_contains_every_arm_pose_of_any_body(seed, heading_deg, d1, d2, d3, d4, head, torso_r, arm_r):
+    """The same for bodies other than the default (short arms and a tall head, say): the one
+    capsule holds the head's top too, not only the arms."""
+    body = BodyDimensions(d1_m=d1, d2_m=d2, d3_m=d3, d4_m=d4, head_above_chest_m=head, torso_radius_m=torso_r,
+                          upper_arm_radius_m=arm_r, forearm_radius_m=arm_r)
+    chest = Rotation.from_euler("z", heading_deg, degrees=True) * CHEST
+    caps = five_capsules(XY, Rotation.concatenate([chest, Rotation.random(4, random_state=seed)]), body)
+    a, b, radius = one_capsule(XY, body).by_name("body")
+    for p0, p1, r in zip(caps.p0_b_m, caps.p1_b_m, caps.radius_m):
+        for p in (p0, p1):
+            assert point_segment_distance(p, a, b) + r <= radius + 1e-9
+
+
 def test_arm_chain_wants_five_rotations():
     with pytest.raises(ValueError, match="r_b_imu"):
         arm_chain(P0, Rotation.concatenate([CHEST, DOWN]), 0.2, 0.2, 0.3, 0.28)
