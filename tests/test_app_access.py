@@ -418,6 +418,38 @@ def test_parts_beyond_the_declared_size_end_the_transfer(demo, tab, upload_folde
     assert demo.uploads._transfers == {}
 
 
+def test_a_part_sent_twice_ends_the_transfer(demo, tab, upload_folder):
+    transfer = upload(tab, demo, "twice.jsonl.gz", b"z" * 200, part_bytes=100, send_parts=False)
+    part = {"type": "FileTransferPart", "source_component_uuid": demo.panel.upload._impl.uuid,
+            "transfer_uuid": transfer, "part_index": 0, "content": b"z" * 100}
+    tab.send(part)
+    tab.send(part)  # the same part again: 200 bytes "received", one part missing
+    final, removed = closed_upload(tab, transfer)
+    assert removed is not None and removed < final
+    assert "not sent as it declared (part 0)" in notified(tab, "Recording refused")["body"]
+    assert demo.uploads._transfers == {} and list(upload_folder.iterdir()) == []
+
+
+def test_parts_short_of_the_declared_size_are_refused_not_loaded(demo, tab, upload_folder):
+    previous = demo.replay.replay
+    transfer = upload(tab, demo, "short.jsonl.gz", b"s" * 200, declared=300, part_bytes=100)
+    final, removed = closed_upload(tab, transfer)
+    assert removed is not None and removed < final
+    assert "not sent as it declared (200 of 300 bytes)" in notified(tab, "Recording refused")["body"]
+    assert demo.replay.replay is previous and demo.uploads._transfers == {}
+
+
+def test_a_loader_that_fails_still_answers_the_tab_in_one_sentence(demo, tab, upload_folder, monkeypatch):
+    def broken(name, content):
+        raise RuntimeError("the loader broke")
+
+    monkeypatch.setattr(demo.uploads, "on_file", broken)
+    transfer = upload(tab, demo, "fine.jsonl.gz", b"f" * 100)
+    final, removed = closed_upload(tab, transfer)
+    assert removed is not None and removed < final  # no "uploaded successfully"
+    assert notified(tab, "Recording refused")["body"] == "fine.jsonl.gz could not be loaded (server error, see its log)"
+
+
 def test_a_corrupt_recording_is_refused_in_one_sentence_and_leaves_nothing(demo, tab, upload_folder):
     import gzip
 

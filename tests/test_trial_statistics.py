@@ -158,6 +158,20 @@ def test_tails_follow_the_sliding_minus_stop_direction():
     assert row.tail == "greater" and row.p < 0.01
 
 
+def test_the_paired_effect_size_is_positive_when_sliding_is_favoured_in_either_tail():
+    """The matched-pairs rank-biserial effect: +1 when every pair favours sliding (lower times with
+    ``less``, higher scores with ``greater``), -1 when every pair favours stop; and with fewer than
+    five non-zero pairs the result says the test cannot reach 0.05."""
+    stop = np.linspace(30.0, 48.0, 10)
+    faster = stop - np.linspace(1.0, 5.0, 10)
+    assert signed_rank("t", faster, stop, "less", with_ci=False).effect_size == pytest.approx(1.0)
+    assert signed_rank("t", stop, faster, "less", with_ci=False).effect_size == pytest.approx(-1.0)
+    assert signed_rank("s", stop, faster, "greater", with_ci=False).effect_size == pytest.approx(1.0)
+    few = signed_rank("t", faster[:4], stop[:4], "less", with_ci=False)
+    assert few.p == pytest.approx(0.5 ** 4) and "cannot reach 0.05" in few.reason
+    assert signed_rank("t", faster[:5], stop[:5], "less", with_ci=False).reason == ""
+
+
 def test_pairing_matters_where_people_differ_more_than_the_conditions():
     """Big differences between people, the same 2 s gain for each: the paired test sees it, the
     independent-groups test cannot."""
