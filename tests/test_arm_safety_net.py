@@ -11,7 +11,7 @@ import pytest
 from cobotsafety.arm.controller import ArmController
 from cobotsafety.arm.limitations import JointPositionLimits
 from cobotsafety.arm.limitations.human import unpack_human
-from cobotsafety.arm.step_kernel import ANTICIPATIVE, CROSSING_TOLERANCE_M, safety_net, unpack_robot
+from cobotsafety.arm.step_kernel import ANTICIPATIVE, CROSSING_TOLERANCE_M, safety_net
 from compiled_arm import compiled_distances, compiled_kinematics
 
 #: The net's bisection halves its bracket 25 times: the share it returns is within this of the
@@ -27,13 +27,11 @@ def _distances(controller: ArmController, q: np.ndarray) -> np.ndarray:
 
 
 def _net(controller: ArmController, q: np.ndarray, qdot: np.ndarray, dt_s: float):
-    pack = controller._scene()
-    parts = [len(d) for d in compiled_distances(pack, controller.model, compiled_kinematics(controller.model, q)[0],
-                                                unpack_human(controller._human_f, 0.0))]
-    before_start = np.concatenate([[0], np.cumsum(parts)]).astype(np.int64)
-    before = _distances(controller, q)
-    hum = unpack_human(controller._human_f, 0.0)
-    model = controller.model
+    """``(q_next, share executed, distances before)`` of ``safety_net`` for the step ``qdot dt_s``."""
+    model, hum = controller.model, unpack_human(controller._human_f, 0.0)
+    parts = compiled_distances(controller._scene(), model, compiled_kinematics(model, q)[0], hum)
+    before_start = np.concatenate([[0], np.cumsum([len(p) for p in parts])]).astype(np.int64)
+    before = np.concatenate(parts)
     out = safety_net(np.ascontiguousarray(q), np.ascontiguousarray(qdot), dt_s, ANTICIPATIVE, model.robot_i,
                      model.robot_f, controller._scene_i, controller._scene_f, hum, before, before_start, np.zeros(model.nv))
     return out[0], out[-1], before
