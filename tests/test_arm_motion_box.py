@@ -1,6 +1,7 @@
-"""The joints' motion box (``motion_box.motion_box``) against its definition, and the hand's ball (``motion_box.within_hand_ball``): the rest of the hand's acceleration and jerk
-limits beyond the per-axis box the filter plans with, against its definition written from the
-norms and from the next step's box (its two velocity windows meet)."""
+"""The joints' motion box (``motion_box.motion_box``) against its definition. The hand's ball
+(``motion_box.within_hand_ball``): the rest of the hand's acceleration and jerk limits beyond the
+per-axis box the filter plans with, against its definition written from the norms and from the
+next step's box (its two velocity windows meet)."""
 
 from __future__ import annotations
 
@@ -66,11 +67,10 @@ def test_the_motion_box_keeps_acceleration_jerk_and_room_to_ramp_down_before_the
     and from either end, ramping the acceleration down at the jerk limit step by step never
     passes the speed limit (from a state that could ramp down itself: the box keeps it so)."""
     jerk = 10.0 ** jerk_exp
-    qdot_prev, qddot_prev = np.array([v_prev * vel]), np.array([a_share * acc])
-    v0, a0 = float(qdot_prev[0]), float(qddot_prev[0])
+    v0, a0 = v_prev * vel, a_share * acc
     assume(ramp_peak(v0, a0, jerk, dt) <= vel if a0 > 0.0 else -ramp_peak(-v0, -a0, jerk, dt) >= -vel)
     lo, hi = np.empty(1), np.empty(1)
-    motion_box(qdot_prev, qddot_prev, np.array([acc]), np.array([jerk]), np.array([vel]), dt, lo, hi)
+    motion_box(np.array([v0]), np.array([a0]), np.array([acc]), np.array([jerk]), np.array([vel]), dt, lo, hi)
     lo, hi = float(lo[0]), float(hi[0])
     tol = 1e-12 * max(1.0, vel)
     assert lo <= hi

@@ -19,17 +19,20 @@ from compiled_arm import compiled_distances, compiled_kinematics
 RESOLUTION = 2.0 ** -24
 
 
-def _distances(controller: ArmController, q: np.ndarray) -> np.ndarray:
-    pack = controller._scene()
-    kin = compiled_kinematics(controller.model, q)[0]
+def _distance_parts(controller: ArmController, q: np.ndarray) -> list[np.ndarray]:
+    """Each limitation's distances at ``q``, as the net re-checks them."""
     hum = unpack_human(controller._human_f, 0.0)
-    return np.concatenate(compiled_distances(pack, controller.model, kin, hum))
+    return compiled_distances(controller._scene(), controller.model, compiled_kinematics(controller.model, q)[0], hum)
+
+
+def _distances(controller: ArmController, q: np.ndarray) -> np.ndarray:
+    return np.concatenate(_distance_parts(controller, q))
 
 
 def _net(controller: ArmController, q: np.ndarray, qdot: np.ndarray, dt_s: float):
     """``(q_next, share executed, distances before)`` of ``safety_net`` for the step ``qdot dt_s``."""
     model, hum = controller.model, unpack_human(controller._human_f, 0.0)
-    parts = compiled_distances(controller._scene(), model, compiled_kinematics(model, q)[0], hum)
+    parts = _distance_parts(controller, q)
     before_start = np.concatenate([[0], np.cumsum([len(p) for p in parts])]).astype(np.int64)
     before = np.concatenate(parts)
     out = safety_net(np.ascontiguousarray(q), np.ascontiguousarray(qdot), dt_s, ANTICIPATIVE, model.robot_i,

@@ -288,9 +288,10 @@ def test_an_optimisers_answer_beyond_the_arms_limits_is_never_counted_an_escape(
         kin.a_max = a_max  # (the hand's limit stays lifted: the joints' acceleration alone must refuse it)
     else:
         truth, t_closest, critical = _truth(_ApproachingHuman(p_ee, 0.8, 0.1, 1.5)), 0.67, 0.1
+        ee_speed, ee_acc = kin.ee_speed, kin.ee_acc
         kin.ee_speed, kin.ee_acc = 1e3, 1e3
         beyond = escape_exists("iiwa", held, t, t_closest, truth, 0.0, critical_m=critical, kinematics=kin)
-        kin.ee_speed, kin.ee_acc = 1.0, 2.0
+        kin.ee_speed, kin.ee_acc = ee_speed, ee_acc
     assert beyond.exists and beyond.witness_rad_s is not None
     answer = np.concatenate([beyond.witness_rad_s.ravel(), [beyond.best_min_distance_m]])
     monkeypatch.setattr(escape, "minimize", lambda *args, **kwargs: SimpleNamespace(x=answer.copy()))

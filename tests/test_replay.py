@@ -114,15 +114,15 @@ def test_silent_laser_holds_pose_and_grows(recording):
     assert caps.radius_m[0] >= recording.body.torso_radius_m + 1.6 * 2.0 - 1e-9
 
 
+def cut_imu_after(recording, name, t_s):
+    keep = recording.imu_t_s[name] <= t_s
+    return dataclasses.replace(recording, imu_t_s={**recording.imu_t_s, name: recording.imu_t_s[name][keep]},
+                               imu_q_ref={**recording.imu_q_ref, name: recording.imu_q_ref[name][keep]})
+
+
 def test_silent_imu_gives_one_capsule(recording):
     name = "forearm_right"
-    keep = recording.imu_t_s[name] <= 10.0
-    silent = dataclasses.replace(
-        recording,
-        imu_t_s={**recording.imu_t_s, name: recording.imu_t_s[name][keep]},
-        imu_q_ref={**recording.imu_q_ref, name: recording.imu_q_ref[name][keep]},
-    )
-    caps = Replay(silent).capsules_at(10.5)
+    caps = Replay(cut_imu_after(recording, name, 10.0)).capsules_at(10.5)
     assert caps.names == CAPSULE_NAMES_1 and caps.stale and name in caps.reason
     assert caps.radius_m[0] >= recording.body.one_capsule_radius_m
 
@@ -132,13 +132,8 @@ def test_an_imu_just_past_its_threshold_gives_one_capsule(recording):
     the readable one): an IMU a fifth past ``imu_stale_after_s`` is silent (one capsule, stale),
     one a fifth within it is fresh."""
     name = "forearm_right"
-    keep = recording.imu_t_s[name] <= 10.0
-    last = recording.imu_t_s[name][keep][-1]
-    silent = dataclasses.replace(
-        recording,
-        imu_t_s={**recording.imu_t_s, name: recording.imu_t_s[name][keep]},
-        imu_q_ref={**recording.imu_q_ref, name: recording.imu_q_ref[name][keep]},
-    )
+    silent = cut_imu_after(recording, name, 10.0)
+    last = silent.imu_t_s[name][-1]
     replay = Replay(silent)
     threshold = replay.tracker.policy.imu_stale_after_s
     fresh = replay.capsules_at(last + 0.8 * threshold)
