@@ -8,8 +8,8 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
-from cobotsafety.arm.joint_filter import (LEVEL_EXACT, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LIMITATION, MOTION, PLAN,
-                                          RECOVERY, SPEED_CUTS, VELOCITY, filter_rows)
+from cobotsafety.arm.joint_filter import (HAND, LEVEL_EXACT, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LIMITATION, MOTION,
+                                          PLAN, RECOVERY, SPEED_CUTS, VELOCITY, filter_rows)
 from oracles.joint_filter import ahead_cap_qp, filter_qp, lexicographic_qp, stage1_objective
 from oracles.projection import kkt_residual, paper_rule_2d
 
@@ -149,6 +149,64 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
         assert violation[:count][soft].max() > 0.0
         tested[level] += 1
     assert tested[LEVEL_SMOOTHNESS] > 100 and tested[LEVEL_EXACT] > 150 and tested["feasible"] > 0, tested
+
+
+def test_the_hands_limits_give_way_before_the_joints():
+    """A limitation that needs more than the joints' and the hand's boxes allow together: when
+    the hand's box alone giving way is enough, the joints' boxes hold (their limits are the ones
+    a robot's controller enforces on a joint command) and the hand's rows are relaxed by least
+    squares (quadprog's two stages with only those soft); when it is not, both give way (the
+    same with the joints' rows soft too). Both count as giving up smoothness."""
+    rng = np.random.default_rng(48)
+    tested = {"hand": 0, "hand and joints": 0}
+    for k in range(600):
+        nv = int(rng.integers(4, 8))
+        J, B, q0 = task(rng, nv)
+        q_prev = rng.uniform(-0.5, 0.5, nv)
+        found = hard_problem(rng, nv, q_prev, q_prev)
+        u_prev = J @ q_prev
+        for r in range(3):
+            width = rng.uniform(0.005, 0.1)
+            found.append((HAND, J[r], u_prev[r] - width))
+            found.append((HAND, -J[r], -u_prev[r] - width))
+        a = rng.normal(size=nv)
+        found.append((LIMITATION, a, a @ q_prev + rng.uniform(0.05, 1.0)))
+        N, b, group, count = rows(found, nv)
+        try:
+            filter_qp(q0, B, N[:count], b[:count])
+            continue  # every row holds: not this test's case
+        except ValueError:
+            pass
+        # Which case: can every row but the hand's (and the plan's) hold? (scipy's LP; margins
+        # within 1e-7 of the boundary are left out: either answer is right there.)
+        keep = ~np.isin(group[:count], (PLAN, HAND))
+        margin = scipy.optimize.linprog(np.r_[np.zeros(nv), -1.0],
+                                        A_ub=np.hstack([-N[:count][keep], np.ones((keep.sum(), 1))]),
+                                        b_ub=-b[:count][keep], bounds=[(None, None)] * nv + [(None, 1.0)],
+                                        method="highs")
+        if not margin.success or abs(margin.x[-1]) < 1e-7:
+            continue
+        case = "hand" if margin.x[-1] > 0 else "hand and joints"
+        soft = np.isin(group[:count], (PLAN, HAND) if case == "hand" else (PLAN, HAND, MOTION))
+        try:
+            expected, violation_qp = lexicographic_qp(q0, B, N[:count], b[:count], soft)
+        except ValueError:
+            continue  # beyond the speed limits too (another level), or quadprog's degenerate vertex
+        qdot, violation, level, _ = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
+        assert level == LEVEL_SMOOTHNESS, (k, case)
+        hair = 1e-6 * max(1.0, float(np.abs(b[:count]).max()))
+        optimum = stage1_objective(q0, B, N[:count], b[:count], violation_qp, hair)
+        reached = stage1_objective(q0, B, N[:count], b[:count], violation[:count], hair)
+        # (Stage 1's optimum as in the test above; here the violations are larger, and the two
+        # solvers' objectives agree to 1e-4 relative: seed 48's worst 2.3e-5.)
+        assert reached <= optimum * (1.0 + 1e-4) + 1e-12, (k, case, reached, optimum)
+        np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-3)
+        joints = group[:count] == MOTION
+        if case == "hand":  # the joints' boxes held
+            assert np.all(N[:count][joints] @ qdot >= b[:count][joints] - hair), k
+            assert violation[:count][joints].max() == 0.0
+        tested[case] += 1
+    assert min(tested.values()) > 40, tested
 
 
 def test_a_recovery_gives_way_before_the_motion_limits():

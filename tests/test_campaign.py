@@ -300,13 +300,15 @@ def test_an_optimisers_answer_beyond_the_arms_limits_is_never_counted_an_escape(
 
 
 def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_approach():
-    """One drawn person the anticipative iiwa breaches for (seed 0, person 124: walks in, stops,
-    reaches at the arm): the searches from later starts are asked only when the earlier found an
-    escape, so each answer implies the one before; the approach began after the person was
-    first seen, before the closest moment, and the search from it was asked (a bool)."""
+    """One drawn person the anticipative iiwa breaches for (seed 0, person 163: walks in, stops,
+    reaches at the arm; 245 mm at the closest, an escape keeping 515 mm): the searches from later
+    starts are asked only when the earlier found an escape, so each answer implies the one
+    before; the approach began after the person was first seen, before the closest moment, and
+    the search from it was asked (a bool). (Person 124 until the hand's limits gave way first:
+    its run now comes 1 mm inside the critical distance and the search finds no escape.)"""
     from cobotsafety.tools.campaign.person_run import run_person
 
-    r = run_person("iiwa", 124, 0, ("anticipative",))[0]
+    r = run_person("iiwa", 163, 0, ("anticipative",))[0]
     assert r["breach"] and r["escape_exists"] and r["escape_after_detection"]
     assert 0.0 < r["approach_onset_before_closest_s"] < r["detected_before_closest_s"]
     assert isinstance(r["escape_after_approach_onset"], bool)

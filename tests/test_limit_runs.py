@@ -384,3 +384,18 @@ def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypa
     assert r.max_joint_acceleration_at is not None and r.max_ee_acceleration_m_s2 is not None
     assert r.max_joint_acceleration_ratio > 0.5  # the arm moved
     assert np.array_equal(run.q_path, approach.log.commanded_path()[0])
+
+
+def test_where_the_limitations_leave_no_room_the_hands_limits_give_way_before_the_joints():
+    """The iiwa's drag-release with seed 6 at 1 kHz meets limitations that leave the motion
+    limits no room (counted steps). The hand's box gives way first: every joint keeps its
+    acceleration and jerk limits, the ones a robot's controller enforces on a joint command, and
+    only the hand's limits (the iiwa's are our 0.2 g principle) are exceeded, counted. (With the
+    joints' and the hand's boxes giving way together, a joint reached 1.61 times its
+    acceleration and 42 times its jerk limit here.)"""
+    c = ArmController("iiwa")
+    run = _measure("drag-release", c, drag_release(c, 0.001, seed=6), 0.001)
+    assert run.safety_over_smoothness_steps > 0  # the limitations did leave no room
+    assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
+    assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
+    assert run.ratios.max_ee_acceleration_ratio > 1.0 + 1e-9  # the hand's limit gave way instead

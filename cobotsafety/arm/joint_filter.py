@@ -15,7 +15,7 @@ hand deviation) before it slides the hand. ``B = I`` and ``q0`` a joint velocity
 plain projection of that velocity (paper 2's field, sliding off the limitations).
 
 Every row is a half-space ``a . qdot >= b`` (``tests/test_arm_joint_filter.py`` holds the
-result equal to quadprog's on random problems), in five groups by priority:
+result equal to quadprog's on random problems), in six groups by priority:
 
 * ``LIMITATION``: each limitation's *safety* bound, the approach from which the arm can still
   brake before it with its full motion limits (``braking.safe_speed``), and the robot's own
@@ -26,8 +26,13 @@ result equal to quadprog's on random problems), in five groups by priority:
   its retreat gives way (to what it can grow to in a step, then to that) before the motion
   limits do (a retreat is not a stop);
 * ``VELOCITY``: each joint's speed limit: hard;
-* ``MOTION``: each joint's acceleration and jerk limits, and the end-effector's, as the box of
-  velocities the next step may take from the previous one;
+* ``MOTION``: each joint's acceleration and jerk limits, as the box of velocities the next step
+  may take from the previous one;
+* ``HAND``: the end-effector's acceleration and jerk limits, the same box for the hand; when the
+  hard rows contradict the motion rows these give way first, the joints' only if that is not
+  enough: the joints' limits are the ones a robot's controller enforces on a joint command
+  (libfranka's joint reflexes, KUKA's), the hand's are a Cartesian interface's (libfranka) or
+  our principle (the iiwa's 0.2 g);
 * ``PLAN``: each limitation's *planning* bound, the same with a share of the motion limits
   (``FilterSettings.brake_share``): the arm plans to brake gently, and has the rest in reserve;
   and the command's speed cap, on the velocity the hand reaches once its acceleration has
@@ -54,7 +59,7 @@ import numpy as np
 from cobotsafety.least_distance import RELAX_DONE, RELAXATION_COMMAND_WEIGHT, relax_kernel
 from cobotsafety.small_linalg import matvec
 
-LIMITATION, VELOCITY, MOTION, PLAN, RECOVERY = 0, 1, 2, 3, 4
+LIMITATION, VELOCITY, MOTION, PLAN, RECOVERY, HAND = 0, 1, 2, 3, 4, 5
 #: How the filter ended: within the motion limits; motion limits given up for safety; retreats
 #: relaxed; approaching nothing; stopped.
 LEVEL_EXACT, LEVEL_SMOOTHNESS, LEVEL_RELAXED, LEVEL_APPROACH_NOTHING, LEVEL_STOPPED = 0, 1, 2, 3, 4
@@ -116,8 +121,16 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
         if done:
             return qdot, violation, LEVEL_EXACT
+    if first_level <= LEVEL_SMOOTHNESS and not recovering:
+        # The hand's limits give way first (by least squares, with the plan's margin), the
+        # joints' kept.
+        for i in range(count):
+            soft[i] = group[i] == PLAN or group[i] == HAND
+        qdot, violation, done = _relax(q0, B, G, h, soft, floors)
+        if done:
+            return qdot, violation, LEVEL_SMOOTHNESS
     for i in range(count):
-        soft[i] = group[i] == PLAN or group[i] == MOTION
+        soft[i] = group[i] == PLAN or group[i] == MOTION or group[i] == HAND
     if first_level <= LEVEL_SMOOTHNESS:
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
         if done and recovering:
@@ -144,7 +157,7 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
                 if eased_done:
                     return eased_qdot, eased_violation, LEVEL_EXACT
                 for i in range(count):
-                    soft[i] = group[i] == PLAN or group[i] == MOTION
+                    soft[i] = group[i] == PLAN or group[i] == MOTION or group[i] == HAND
             eased_qdot, eased_violation, eased_done = _relax_lowered(q0, B, G, h, eased, soft, floors)
             if eased_done:
                 return eased_qdot, eased_violation, LEVEL_SMOOTHNESS

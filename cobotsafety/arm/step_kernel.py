@@ -55,7 +55,7 @@ import numpy as np
 
 from cobotsafety.arm.braking import arm_stop_time, stop_distance
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
-                                          LEVEL_SMOOTHNESS, LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY,
+                                          HAND, LEVEL_SMOOTHNESS, LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY,
                                           SPEED_CUTS, VELOCITY, filter_rows)
 from cobotsafety.arm.kinematics import fastest_capsule_end, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.limitation_bounds import limitation_bounds
@@ -558,7 +558,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
             sign = 1.0 if side == 0 else -1.0
             for j in range(nv):
                 N[count, j] = sign * J[r, j]
-            b[count], group[count] = (ee_lo[r] if side == 0 else -ee_hi[r]), MOTION
+            b[count], group[count] = (ee_lo[r] if side == 0 else -ee_hi[r]), HAND
             code[count] = row_code(OWNER_EE_MOTION, r, side)
             count += 1
     # ---- 5. filter -----------------------------------------------------------------------------
@@ -648,7 +648,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         for j in range(nv):
             rate_i += N[i, j] * qdot[j]
         slack = rate_i - (b[i] - violation[i])
-        if group[i] == MOTION:
+        if group[i] == MOTION or group[i] == HAND:
             motion_violation = max(motion_violation, violation[i])
             if slack <= BINDING_TOLERANCE or violation[i] > tolerance:
                 motion_codes[n_motion] = code[i]
