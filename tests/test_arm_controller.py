@@ -396,14 +396,14 @@ def test_a_step_only_the_safety_net_scaled_is_counted_and_given_a_reason(monkeyp
     acts on no step of the suite's runs, so the kernel's output is forced here: the real step, then
     its net scale set to 0.5 and its smoothness flag raised, as the kernel writes them."""
     import cobotsafety.arm.controller as controller_module
-    from cobotsafety.arm.step_kernel import I_LEVEL, I_SMOOTHNESS
+    from cobotsafety.arm.step_kernel import GAVE_WAY_NET, I_LEVEL, I_SMOOTHNESS
 
     real_step, offsets = controller_module.arm_step, []
 
     def net_scaled(*args):
         status = real_step(*args)
         out_f, out_i = args[-2], args[-1]
-        out_f[offsets[0][12]], out_i[I_SMOOTHNESS] = 0.5, 1
+        out_f[offsets[0][12]], out_i[I_SMOOTHNESS] = 0.5, GAVE_WAY_NET
         assert out_i[I_LEVEL] == 0  # the filter itself kept every row
         return status
 

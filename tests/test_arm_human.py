@@ -646,6 +646,46 @@ def test_a_person_faster_than_the_arm_meets_an_arm_within_its_hands_limits():
     assert ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9 or any(r.safety_over_smoothness for r in reports)
 
 
+JOINTS_GAVE_WAY = "safety over smoothness: the joints' motion limits gave way"
+HAND_GAVE_WAY = "safety over smoothness: the hand's motion limits gave way (the joints' kept)"
+
+
+def test_a_counted_step_says_whose_motion_limits_gave_way():
+    """Issue 20 item 4 (never silent, with a reason): the iiwa's hand driven at 0.25 m/s, a
+    person appearing 0.45 m ahead of it, walking at it at 1.5 m/s. The steps that keep the
+    person's row give up smoothness, and each says whose limits gave way, as the joint path
+    shows: "the joints'" where a joint's acceleration or jerk exceeds the box (the robot's
+    limits less ``MOTION_MARGIN``), "the hand's" where every joint keeps its acceleration
+    limit (and its jerk, unless the step before gave way: the box then starts from beyond it)."""
+    from cobotsafety.arm.motion_box import MOTION_MARGIN
+
+    controller = ArmController("iiwa", zones=[], settings=SLIDING)
+    limits = controller.model.limits
+    v = np.array([0.0, 0.25, 0.0])
+    qs = [controller.state.q.copy()]
+    for _ in range(100):
+        controller.step(v, DT)
+        qs.append(controller.state.q.copy())
+    hand = controller.p_base_ee_m.copy()
+    counted = {}  # step index in qs -> reason
+    for _ in range(60):
+        controller.set_human(torso(hand + [0.0, 0.45, 0.0], v=(0.0, -1.5, 0.0)))
+        report = controller.step(v, DT)
+        qs.append(controller.state.q.copy())
+        if report.safety_over_smoothness:
+            counted[len(qs) - 1] = report.reason
+    q = np.array(qs)
+    acceleration = np.max(np.abs(np.diff(q, 2, axis=0)) / DT ** 2 / limits.acceleration_rad_s2, axis=1)
+    jerk = np.max(np.abs(np.diff(q, 3, axis=0)) / DT ** 3 / limits.jerk_rad_s3, axis=1)
+    assert set(counted.values()) == {JOINTS_GAVE_WAY, HAND_GAVE_WAY}, counted  # both kinds happen here
+    for k, reason in counted.items():  # step k's acceleration: acceleration[k - 2]; its jerk: jerk[k - 3]
+        if reason == JOINTS_GAVE_WAY:
+            assert max(acceleration[k - 2], jerk[k - 3]) > MOTION_MARGIN, k
+        else:
+            assert acceleration[k - 2] <= 1.0 + 1e-9, k
+            assert k - 1 in counted or jerk[k - 3] <= 1.0 + 1e-9, k
+
+
 def test_the_evasion_weighs_joints_near_their_limits_as_chan_and_dubey():
     """``field_push`` and ``weighted_least_norm`` with ``limit_scale``: the weighted least-norm solution
     ``W^-1 J^T (J W^-1 J^T + lambda I)^-1 f s`` of Chan and Dubey (1995), ``W = diag(1 +

@@ -394,8 +394,18 @@ def test_where_the_limitations_leave_no_room_the_hands_limits_give_way_before_th
     joints' and the hand's boxes giving way together, a joint reached 1.61 times its
     acceleration and 42 times its jerk limit here.)"""
     c = ArmController("iiwa")
-    run = _measure("drag-release", c, drag_release(c, 0.001, seed=6), 0.001)
+    reasons = []
+
+    def commands():
+        for v in drag_release(c, 0.001, seed=6):
+            yield v
+            if c.last_report.safety_over_smoothness:
+                reasons.append(c.last_report.reason)
+
+    run = _measure("drag-release", c, commands(), 0.001)
     assert run.safety_over_smoothness_steps > 0  # the limitations did leave no room
+    assert reasons == ["safety over smoothness: the hand's motion limits gave way (the joints' kept)"] * len(reasons)
+    assert len(reasons) == run.safety_over_smoothness_steps
     assert run.ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert run.ratios.max_ee_acceleration_ratio > 1.0 + 1e-9  # the hand's limit gave way instead

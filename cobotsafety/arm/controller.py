@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cobotsafety.arm.filter_settings import FilterSettings
+from cobotsafety.arm.joint_filter import LEVEL_SMOOTHNESS
 from cobotsafety.arm.limitations import BoxZone, HalfSpaceZone, HumanLimitation, JointPositionLimits, ReachLimits, \
     SphereZone, TablePlane
 from cobotsafety.arm.limitations.human import human_buffer
@@ -56,8 +57,8 @@ from cobotsafety.arm.robot_model import RobotModel
 from cobotsafety.arm.robot_state import RobotState
 from cobotsafety.arm.robots import DEFAULT_ROBOT
 from cobotsafety.arm.step_kernel import (FLAG_JOINT_COMMAND, FLAG_ORIENTATION, FLAG_PROTECTIVE,
-                                         FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP, OUT_I_HEADER, OWNER_EE_MOTION,
-                                         OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
+                                         FLAG_PROTECTIVE_HELD, FLAG_SSM, FLAG_STOP, GAVE_WAY_HAND, GAVE_WAY_JOINTS,
+                                         OUT_I_HEADER, OWNER_EE_MOTION, OWNER_MOTION, OWNER_SPEED, OWNER_VELOCITY,
                                          STATUS_DONE, STRATEGIES, arm_step, decode_row, output_layout)
 from cobotsafety.arm.step_report import ArmStepReport
 from cobotsafety.errors import CobotSafetyError
@@ -88,7 +89,9 @@ _ANTICIPATIVE, _OFF, _STOP = _STRATEGY_CODES["anticipative"], _STRATEGY_CODES["o
 _FLOAT = np.dtype(float)
 _ZERO3 = np.zeros(3)
 _EMPTY = np.zeros(0)
-_LEVEL_REASONS = {1: "safety over smoothness: the motion limits gave way", 2: "retreats contradict",
+_GAVE_WAY_REASONS = {GAVE_WAY_JOINTS: "safety over smoothness: the joints' motion limits gave way",
+                     GAVE_WAY_HAND: "safety over smoothness: the hand's motion limits gave way (the joints' kept)"}
+_LEVEL_REASONS = {2: "retreats contradict",
                   3: "limits contradict: approaching nothing", 4: "limits contradict: stopped"}
 
 
@@ -470,10 +473,12 @@ class ArmController:
         _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
         stopped = stopped != 0
         relaxed = level in (2, 3) and relaxed_rows > 0
-        if level:
+        if level > LEVEL_SMOOTHNESS:
             detail = (f" ({relaxed_rows} row(s), at most {out_f[self._offsets[13]]:.3g} m/s: {self._name(worst)})"
                       if relaxed_rows and worst >= 0 else "")
             reason = reason or _LEVEL_REASONS[level] + detail
+        elif smoothness in _GAVE_WAY_REASONS:
+            reason = reason or _GAVE_WAY_REASONS[smoothness]
         elif smoothness:  # the filter's command kept every row; integrated, it would have crossed one
             reason = reason or (f"safety over smoothness: the safety net executed {out_f[self._offsets[12]]:.3g} "
                                 "of the step to keep a limitation")

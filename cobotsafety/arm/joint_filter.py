@@ -69,6 +69,12 @@ SPEED_CUTS = 8
 BINDING_TOLERANCE = 1e-9
 
 
+@numba.njit(cache=True, inline="always")
+def is_motion(group):  # pragma: no cover - compiled
+    """A motion row: the joints' (``MOTION``) or the hand's (``HAND``) acceleration and jerk box."""
+    return group == MOTION or group == HAND
+
+
 @numba.njit(cache=True)
 def _relax(q0, B, G, h, soft, floors):  # pragma: no cover - compiled
     """``relax_kernel`` on the z-space rows: ``(qdot, violation, done)``."""
@@ -130,7 +136,7 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
         if done:
             return qdot, violation, LEVEL_SMOOTHNESS
     for i in range(count):
-        soft[i] = group[i] == PLAN or group[i] == MOTION or group[i] == HAND
+        soft[i] = group[i] == PLAN or is_motion(group[i])
     if first_level <= LEVEL_SMOOTHNESS:
         qdot, violation, done = _relax(q0, B, G, h, soft, floors)
         if done and recovering:
@@ -157,7 +163,7 @@ def _solve(q0, B, N, b, ramp, group, count, first_level):  # pragma: no cover - 
                 if eased_done:
                     return eased_qdot, eased_violation, LEVEL_EXACT
                 for i in range(count):
-                    soft[i] = group[i] == PLAN or group[i] == MOTION or group[i] == HAND
+                    soft[i] = group[i] == PLAN or is_motion(group[i])
             eased_qdot, eased_violation, eased_done = _relax_lowered(q0, B, G, h, eased, soft, floors)
             if eased_done:
                 return eased_qdot, eased_violation, LEVEL_SMOOTHNESS

@@ -56,7 +56,7 @@ import numpy as np
 from cobotsafety.arm.braking import arm_stop_time, stop_distance
 from cobotsafety.arm.joint_filter import (BINDING_TOLERANCE, LEVEL_APPROACH_NOTHING, LEVEL_EXACT, LEVEL_RELAXED,
                                           HAND, LEVEL_SMOOTHNESS, LEVEL_STOPPED, LIMITATION, MOTION, PLAN, RECOVERY,
-                                          SPEED_CUTS, VELOCITY, filter_rows)
+                                          SPEED_CUTS, VELOCITY, filter_rows, is_motion)
 from cobotsafety.arm.kinematics import fastest_capsule_end, forward_kinematics, frame_jacobian, integrate, log3
 from cobotsafety.arm.limitation_bounds import limitation_bounds
 from cobotsafety.arm.limitations import human as human_kind
@@ -82,6 +82,10 @@ FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FL
 (I_STATUS, I_LEVEL, I_STOPPED, I_BINDING, I_RELAXED, I_WORST, I_MOTION_LIMITED, I_SMOOTHNESS, I_PROTECTIVE,
  I_MOTION_COUNT, I_EVADING) = range(11)
 OUT_I_HEADER = 16
+#: ``out_i[I_SMOOTHNESS]``, smoothness given up for safety (0: not): the joints' motion limits
+#: gave way (the hand's may too); only the hand's (the joints' kept); the safety net scaled the
+#: step (the filter's command kept every row).
+GAVE_WAY_JOINTS, GAVE_WAY_HAND, GAVE_WAY_NET = 1, 2, 3
 STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: Row codes: ``(owner + 4) << 20 | a << 10 | b``; owner >= 0 a limitation (its index), else
 #: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
@@ -638,7 +642,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     out_f[offsets[10]:offsets[11]] = robot_point
     out_f[offsets[11]:offsets[12]] = human_point
     out_f[offsets[12]] = net_scale
-    worst, worst_code, relaxed_rows, motion_violation = 0.0, -1, 0, 0.0
+    worst, worst_code, relaxed_rows, motion_violation, joint_violation = 0.0, -1, 0, 0.0, 0.0
     n_binding, n_motion = 0, 0
     codes = out_i[OUT_I_HEADER:]
     motion_codes = np.empty(rows, dtype=np.int64)
@@ -648,8 +652,10 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
         for j in range(nv):
             rate_i += N[i, j] * qdot[j]
         slack = rate_i - (b[i] - violation[i])
-        if group[i] == MOTION or group[i] == HAND:
+        if is_motion(group[i]):
             motion_violation = max(motion_violation, violation[i])
+            if group[i] == MOTION:
+                joint_violation = max(joint_violation, violation[i])
             if slack <= BINDING_TOLERANCE or violation[i] > tolerance:
                 motion_codes[n_motion] = code[i]
                 n_motion += 1
@@ -683,7 +689,14 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     out_i[I_WORST] = worst_code
     out_i[I_MOTION_LIMITED] = int(n_motion > 0)
     out_i[I_MOTION_COUNT] = n_motion
-    out_i[I_SMOOTHNESS] = int((level >= 1 and motion_violation > tolerance) or net_scale < 1.0)
+    if level >= 1 and joint_violation > tolerance:
+        out_i[I_SMOOTHNESS] = GAVE_WAY_JOINTS
+    elif level >= 1 and motion_violation > tolerance:
+        out_i[I_SMOOTHNESS] = GAVE_WAY_HAND
+    elif net_scale < 1.0:
+        out_i[I_SMOOTHNESS] = GAVE_WAY_NET
+    else:
+        out_i[I_SMOOTHNESS] = 0
     out_i[I_PROTECTIVE] = int(protective)
     out_i[I_EVADING] = int(evading)
     acceleration_ratio = 0.0
