@@ -13,10 +13,11 @@ PANDA = RobotVocabulary(tuple(f"panda_joint{k}" for k in range(1, 8)), "panda_jo
 ZERO = (0.0, 0.0, 0.0)
 
 
-def report(binding=(), v_desired=ZERO, v_executed=ZERO, stopped=False, reason="", contradictions=0, evading=False):
+def report(binding=(), v_desired=ZERO, v_executed=ZERO, stopped=False, reason="", contradictions=0, evading=False,
+           smoothness=False):
     return SimpleNamespace(binding=binding, v_desired_m_s=np.array(v_desired), v_commanded_m_s=np.array(v_executed),
                            v_executed_m_s=np.array(v_executed), stopped=stopped, reason=reason,
-                           contradictions=contradictions, evading=evading)
+                           contradictions=contradictions, evading=evading, safety_over_smoothness=smoothness)
 
 
 def facts(rep, **kw):
@@ -50,6 +51,9 @@ def facts(rep, **kw):
     (report(v_executed=(0.05, 0.0, 0.0)), {}, "Going back to where you left it."),
     (report(reason="retreats contradict", contradictions=23771), {},
      "Limits conflict: the arm yields to each as little as it can."),
+    (report(("human torso (panda_joint4)",), v_executed=(0.0, -0.1, 0.0), smoothness=True,
+            reason="safety over smoothness: the joints' motion limits gave way"), {"human_present": True},
+     "Safety over smoothness: the joints' motion limits gave way."),  # not "limits conflict": the motion's
     (report(("velocity 9",), v_desired=(0.1, 0.0, 0.0)), {"method": "off"},
      "Filter off: the arm follows the drag; only its joints' ends hold it."),
     (report(), {"replay_state": "exp1: reading it"}, "The arm holds its pose (exp1: reading it)."),
