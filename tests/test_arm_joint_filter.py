@@ -91,6 +91,20 @@ def test_hard_rows_equal_the_quadprog_qp_on_random_problems():
     assert binding > 1000 and quadprog_failures < 50  # most problems had to move the command
 
 
+def acceptance(b: np.ndarray) -> float:
+    """``relax_kernel``'s acceptance of a row: 1e-6 of the bounds' size."""
+    return 1e-6 * max(1.0, float(np.abs(b).max()))
+
+
+def assert_reaches_stage1_optimum(q0, B, N, b, violation, violation_qp, rel: float, where: tuple) -> None:
+    """The kernel's violations reach quadprog's stage-1 optimum to ``rel`` (relative), each
+    objective read with the kernel's acceptance as its hair (``stage1_objective``)."""
+    hair = acceptance(b)
+    optimum = stage1_objective(q0, B, N, b, violation_qp, hair)
+    reached = stage1_objective(q0, B, N, b, violation, hair)
+    assert reached <= optimum * (1.0 + rel) + 1e-12, (*where, reached, optimum)
+
+
 def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
     """A limitation that needs more than the motion box allows: the motion rows are relaxed by
     least squares (safety over smoothness), the rest is the closest command; against the two
@@ -133,10 +147,7 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
         # problem 224: 1.3e-4 apart on an AMD EPYC, objectives equal to 1e-7; under 2e-6 apart
         # on an Intel Xeon). So the kernel's violations must reach quadprog's optimum (to 1e-5
         # relative: seed 42's worst 1.4e-6), and agree with them to 1e-3.
-        hair = 1e-6 * max(1.0, float(np.abs(b[:count]).max()))  # relax_kernel's acceptance (below)
-        optimum = stage1_objective(q0, B, N[:count], b[:count], violation_qp, hair)
-        reached = stage1_objective(q0, B, N[:count], b[:count], violation[:count], hair)
-        assert reached <= optimum * (1.0 + 1e-5) + 1e-12, (k, reached, optimum)
+        assert_reaches_stage1_optimum(q0, B, N[:count], b[:count], violation[:count], violation_qp, 1e-5, (k,))
         np.testing.assert_allclose(violation[:count], violation_qp, rtol=0, atol=1e-3)
         # Stage 2 moves that difference to the command through its active set (``Z / eps``:
         # entries up to ~100): seed 42's worst 1.3e-4 rad/s (2.2e-5 on the Xeon).
@@ -145,7 +156,7 @@ def test_motion_rows_give_way_lexicographically_when_the_hard_rows_force_them():
         worst_hard = float(np.max(b[:count][hard] - N[:count][hard] @ qdot))
         # The limitation and speed rows hold, to relax_kernel's acceptance (1e-6 of the bounds'
         # size: seed 42's worst miss 1.9e-7 on bounds of ~3).
-        assert worst_hard <= 1e-6 * max(1.0, float(np.abs(b[:count]).max())), (k, level, worst_hard)
+        assert worst_hard <= acceptance(b[:count]), (k, level, worst_hard)
         assert violation[:count][soft].max() > 0.0
         tested[level] += 1
     assert tested[LEVEL_SMOOTHNESS] > 100 and tested[LEVEL_EXACT] > 150 and tested["feasible"] > 0, tested
@@ -194,12 +205,10 @@ def test_the_hands_limits_give_way_before_the_joints():
             continue  # beyond the speed limits too (another level), or quadprog's degenerate vertex
         qdot, violation, level, _ = filtered(q0, B, N.copy(), b.copy(), group.copy(), count, J, NO_CAP, NO_CAP)
         assert level == LEVEL_SMOOTHNESS, (k, case)
-        hair = 1e-6 * max(1.0, float(np.abs(b[:count]).max()))
-        optimum = stage1_objective(q0, B, N[:count], b[:count], violation_qp, hair)
-        reached = stage1_objective(q0, B, N[:count], b[:count], violation[:count], hair)
         # (Stage 1's optimum as in the test above; here the violations are larger, and the two
         # solvers' objectives agree to 1e-4 relative: seed 48's worst 2.3e-5.)
-        assert reached <= optimum * (1.0 + 1e-4) + 1e-12, (k, case, reached, optimum)
+        assert_reaches_stage1_optimum(q0, B, N[:count], b[:count], violation[:count], violation_qp, 1e-4, (k, case))
+        hair = acceptance(b[:count])
         np.testing.assert_allclose(qdot, expected, rtol=0, atol=1e-3)
         joints = group[:count] == MOTION
         if case == "hand":  # the joints' boxes held
