@@ -84,7 +84,7 @@ def situation(facts: StatusFacts) -> str:
         cause = _listed(limits) or (report.reason or "a limit in the way")
         return f"Stopped: {cause}."
     if report is not None and report.reason:
-        if getattr(report, "safety_over_smoothness", False):  # whose motion limits gave way, and why
+        if report.safety_over_smoothness:  # whose motion limits gave way, and why
             return f"{report.reason[:1].upper()}{report.reason[1:]}."
         return "Limits conflict: the arm yields to each as little as it can."
     if human:
