@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cobotsafety.arm.filter_settings import FilterSettings
-from cobotsafety.arm.joint_filter import LEVEL_SMOOTHNESS
+from cobotsafety.arm.joint_filter import LEVEL_APPROACH_NOTHING, LEVEL_RELAXED, LEVEL_SMOOTHNESS, LEVEL_STOPPED
 from cobotsafety.arm.limitations import BoxZone, HalfSpaceZone, HumanLimitation, JointPositionLimits, ReachLimits, \
     SphereZone, TablePlane
 from cobotsafety.arm.limitations.human import human_buffer
@@ -91,8 +91,9 @@ _ZERO3 = np.zeros(3)
 _EMPTY = np.zeros(0)
 _GAVE_WAY_REASONS = {GAVE_WAY_JOINTS: "safety over smoothness: the joints' motion limits gave way",
                      GAVE_WAY_HAND: "safety over smoothness: the hand's motion limits gave way (the joints' kept)"}
-_LEVEL_REASONS = {2: "retreats contradict",
-                  3: "limits contradict: approaching nothing", 4: "limits contradict: stopped"}
+_LEVEL_REASONS = {LEVEL_RELAXED: "retreats contradict",
+                  LEVEL_APPROACH_NOTHING: "limits contradict: approaching nothing",
+                  LEVEL_STOPPED: "limits contradict: stopped"}
 
 
 class StepError(CobotSafetyError, ValueError):
@@ -472,7 +473,7 @@ class ArmController:
         self.state.refresh(out_f, self._offsets)
         _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
         stopped = stopped != 0
-        relaxed = level in (2, 3) and relaxed_rows > 0
+        relaxed = level in (LEVEL_RELAXED, LEVEL_APPROACH_NOTHING) and relaxed_rows > 0
         if level > LEVEL_SMOOTHNESS:
             detail = (f" ({relaxed_rows} row(s), at most {out_f[self._offsets[13]]:.3g} m/s: {self._name(worst)})"
                       if relaxed_rows and worst >= 0 else "")
