@@ -299,6 +299,83 @@ def test_an_optimisers_answer_beyond_the_arms_limits_is_never_counted_an_escape(
     assert not refused.exists and refused.best_min_distance_m < critical
 
 
+@pytest.mark.parametrize("robot", ["iiwa", "panda"])
+def test_the_cells_margins_match_pinocchio_and_their_gradient_finite_differences(robot):
+    """The escape search keeps the cell's limitations every campaign controller keeps besides
+    the person and the joint limits (the same table and reach objects as
+    ``approach_step.make_controller``'s arm): each capsule end's height above the table less its
+    radius, and the hand's distance from the reach's shoulder within its inner and extended
+    reach, against pinocchio's forward kinematics (not the compiled step's), at random
+    configurations; their gradient against central differences."""
+    import pinocchio as pin
+
+    from cobotsafety.experiments import approach_step
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics(robot)
+    arm = approach_step.make_controller(robot, "anticipative").arm
+    assert kin.table == arm.table and kin.reach == arm.reach
+    state, model = kin.state, kin.state.model
+    data = model.createData()
+    ee = model.getFrameId(state.spec.ee_frame)
+    shoulder = np.asarray(kin.reach.shoulder)
+    rng = np.random.default_rng(21)
+    for _ in range(5):
+        q = np.clip(state.q + rng.normal(scale=0.4, size=state.nv), kin.lower, kin.upper)
+        margins, gradient = kin.cell_margins(q)
+        pin.framesForwardKinematics(model, data, q)
+        expected = []
+        for c in range(kin.table.skip_capsules, len(state.capsule_radius)):
+            placement = data.oMi[state.capsule_joint_ids[c]]
+            for local in (state.capsule_p0_local[c], state.capsule_p1_local[c]):
+                expected.append(placement.act(local)[2] - state.capsule_radius[c] - kin.table.height_m)
+        r = np.linalg.norm(data.oMf[ee].translation - shoulder)
+        expected += [r - kin.reach.inner_m, kin.reach.outer_m - r]
+        np.testing.assert_allclose(margins, expected, atol=1e-9)
+        h = 1e-6
+        numeric = np.stack([(kin.cell_margins(q + h * e)[0] - kin.cell_margins(q - h * e)[0]) / (2 * h)
+                            for e in np.eye(len(q))], axis=1)
+        np.testing.assert_allclose(gradient, numeric, atol=1e-6)
+
+
+def test_an_escape_keeps_the_cell_the_controllers_keep(monkeypatch):
+    """The person of the first scene closes on the resting iiwa's hand from +y at 0.8 m/s: with
+    no reach to keep, the search's escape pulls the hand back toward the base, centimetres off
+    its radius from the reach's shoulder. With the reach narrowed to a shell 1 cm either side of
+    that radius (a reach the controllers would have to keep), the escape it finds slides the hand
+    along the shell instead, within it at every sample; and the first escape, handed back as an
+    optimiser's answer, is refused."""
+    from types import SimpleNamespace
+
+    from cobotsafety.arm.limitations import ReachLimits
+    from cobotsafety.tools.campaign import escape
+    from cobotsafety.tools.campaign.escape import CELL_TOLERANCE_M, _Kinematics, _weights
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    shoulder = kin.reach.shoulder
+    radius = float(np.linalg.norm(p_ee - np.asarray(shoulder)))
+
+    def sampled_margins(found):
+        _, W = _weights(found.window_s[1] - found.window_s[0])
+        return np.array([kin.cell_margins(q)[0] for q in q_home + W @ found.witness_rad_s])
+
+    kin.reach = ReachLimits(shoulder, 0.0, 10.0)
+    free = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
+    kin.reach = ReachLimits(shoulder, radius - 0.01, radius + 0.01)
+    assert free.exists and sampled_margins(free).min() < -0.01
+    shell = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
+    assert shell.exists and sampled_margins(shell).min() >= -CELL_TOLERANCE_M
+    answer = np.concatenate([free.witness_rad_s.ravel(), [free.best_min_distance_m]])
+    monkeypatch.setattr(escape, "minimize", lambda *args, **kwargs: SimpleNamespace(x=answer.copy()))
+    handed = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
+    assert handed.witness_rad_s is None or sampled_margins(handed).min() >= -CELL_TOLERANCE_M
+    assert not np.allclose(handed.witness_rad_s, free.witness_rad_s) if handed.witness_rad_s is not None else True
+
+
 def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_approach():
     """One drawn person the anticipative iiwa breaches for (seed 0, person 163: walks in, stops,
     reaches at the arm; 245 mm at the closest, an escape keeping 515 mm): the searches from later

@@ -7,10 +7,14 @@ separation above the critical distance, knowing the human's whole future (the gr
 The trajectory is one a real arm could follow: the joint velocity is continuous, starts at the
 logged one, and is linear between ``KNOTS`` evenly spaced knots (the decision variables), each
 knot within the robot's velocity limits and within its acceleration limits of the previous one,
-positions within its joint limits, and the end-effector within its own speed and acceleration
+positions within its joint limits, the end-effector within its own speed and acceleration
 limits at every quarter of a knot interval (``HAND_POINTS``; the acceleration over each): the
-same ``MotionLimits`` the controllers must keep, so an escape is one they were allowed to take
-(jerk is not modelled). It maximises the smallest separation ``s`` at ``SAMPLES`` times
+same ``MotionLimits`` the controllers must keep; and the cell's other limitations every
+campaign controller keeps, the table and the reach (``_Kinematics.cell_margins``), at the same
+samples as the separation. So an escape is one they were allowed to take (jerk is not modelled;
+until 2026-12-07 the table and the reach were not either, and the escapes found for 17 of the
+anticipative controller's 104 escapable breaches after detection went through the table or
+beyond the reach; with both kept the search finds others for all but one, docs/campaign.md). It maximises the smallest separation ``s`` at ``SAMPLES`` times
 (epigraph form: maximise ``s`` subject to ``d_j(x) >= s``). The separation's gradients are
 exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
 the robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat
@@ -54,6 +58,9 @@ HAND_POINTS = 4 * KNOTS
 #: closest moment in which they close on the arm faster than this [m/s]: below the campaign's
 #: slowest walk (0.5 m/s), above a standing person's sway (chosen before any onset was measured).
 ONSET_CLOSING_M_S = 0.3
+#: How far [m] an optimiser's answer may be on the wrong side of the table or the reach and
+#: still count (SLSQP meets its constraints to about this; the controllers keep a 1 mm buffer).
+CELL_TOLERANCE_M = 1e-5
 #: The spacing [s] of the true distances ``approach_onset_s`` differentiates.
 ONSET_STEP_S = 0.01
 
@@ -93,24 +100,48 @@ class _Kinematics:
         self._robot = (jtype, axes, parent, idx_q, idx_v, placement_R, placement_t, support, ee_joint, ee_R, ee_t,
                        cap_joint, cap_p0l, cap_p1l, nv)
         self._data = model.createData()
+        self.table, self.reach = self.arm.table, self.arm.reach
 
     def _at(self, q: np.ndarray):
-        """``(J6 (6, nv), p0 (c, 3), p1 (c, 3))`` at ``q`` (finite, else ``ValueError``)."""
+        """``(p_ee (3,), J6 (6, nv), p0 (c, 3), p1 (c, 3))`` at ``q`` (finite, else ``ValueError``)."""
         from cobotsafety.arm.step_kernel import kinematics
 
         q = np.array(q, dtype=float).reshape(-1)
         if q.shape != (self.state.model.nq,) or not np.all(np.isfinite(q)):
             raise ValueError(f"q must be {self.state.model.nq} finite numbers, got {q}")
-        _, _, _, _, J6, p0, p1 = kinematics(q, *self._robot)
-        return J6, p0, p1
+        _, _, p_ee, _, J6, p0, p1 = kinematics(q, *self._robot)
+        return p_ee, J6, p0, p1
 
     def capsules(self, q: np.ndarray):
-        _, p0, p1 = self._at(q)
+        _, _, p0, p1 = self._at(q)
         return p0[self.skip:], p1[self.skip:], self.state.capsule_radius[self.skip:]
 
     def hand_jacobian(self, q: np.ndarray) -> np.ndarray:
         """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
-        return self._at(q)[0][:3]
+        return self._at(q)[1][:3]
+
+    def cell_margins(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The cell's limitations every campaign controller keeps besides the person and the
+        joint limits, at ``q``: ``(margins (m,) [m], their gradient d/dq (m, nv))``, kept where
+        every margin is >= 0. The table (``TablePlane``: each capsule's two end points, from its
+        ``skip_capsules`` on, above the plane by the capsule's radius) and the reach
+        (``ReachLimits``: the hand between its inner and extended reach from the shoulder), the
+        same objects an ``ArmController`` keeps by default (``approach_step.make_controller``)."""
+        p_ee, J6, p0, p1 = self._at(q)
+        model, radius = self.state.model, self.state.capsule_radius
+        pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
+        margins, gradients = [], []
+        for c in range(self.table.skip_capsules, len(radius)):
+            joint = int(self.state.capsule_joint_ids[c])
+            for end in (p0[c], p1[c]):
+                margins.append(end[2] - radius[c] - self.table.height_m)
+                gradients.append(point_jacobian(model, self._data, joint, end)[2])
+        offset = p_ee - np.asarray(self.reach.shoulder, dtype=float)
+        r = float(np.linalg.norm(offset))
+        radial = (offset / max(r, 1e-12)) @ J6[:3]
+        margins += [r - self.reach.inner_m, self.reach.outer_m - r]
+        gradients += [radial, -radial]
+        return np.array(margins), np.array(gradients)
 
     def separation(self, q: np.ndarray, hp0, hp1, hr) -> tuple[float, np.ndarray]:
         """(separation [m], its gradient d/dq (n,)) against human capsules (k, 3), (k, 3), (k,)."""
@@ -243,6 +274,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
 
     hand = _HandRows(kin, q0, v0, window)
+    dq_dx = np.kron(W, np.eye(n))  # (SAMPLES n, KNOTS n): d q_j / d knot velocities
 
     cache: dict = {}
 
@@ -254,6 +286,20 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
             pairs = [kin.separation(q[j], *humans[j], truth.radius_m) for j in range(SAMPLES)]
             cache[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
         return cache[key]
+
+    cell_cache: dict = {}
+
+    def cell(x: np.ndarray):
+        """The table's and the reach's margins at the samples (``_Kinematics.cell_margins``),
+        and their Jacobian in the knot velocities."""
+        key = x.tobytes()
+        if key not in cell_cache:
+            cell_cache.clear()
+            q = positions(x)
+            rows = [kin.cell_margins(q[j]) for j in range(SAMPLES)]
+            jacobian = np.vstack([g @ dq_dx[j * n:(j + 1) * n] for j, (_, g) in enumerate(rows)])
+            cell_cache[key] = (np.concatenate([m for m, _ in rows]), jacobian)
+        return cell_cache[key]
 
     # Acceleration rows: step -+ (x_k - x_{k-1}) >= 0, x_0 = v0.
     difference = np.eye(KNOTS * n) - np.eye(KNOTS * n, k=-n)
@@ -270,7 +316,8 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
                     and np.all(accelerations(x) >= -1e-9 * steps.max())
                     and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
-                    and np.all(hand.margins(x) >= -1e-4))  # SLSQP's tolerance: 5e-5 of the hand's limits
+                    and np.all(hand.margins(x) >= -1e-4)  # SLSQP's tolerance: 5e-5 of the hand's limits
+                and np.all(cell(x)[0] >= -CELL_TOLERANCE_M))
 
     # Candidates first, each reached at the acceleration limits or a half or a quarter of them
     # (the hand's own limits may allow no more): brake to a stop, the logged motion reversed (a
@@ -294,7 +341,6 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     if start is None:
         start = braking
     # Epigraph: maximise s subject to d_j(x) >= s, joint and acceleration limits, velocity bounds.
-    dq_dx = np.kron(W, np.eye(n))  # (SAMPLES n, KNOTS n): d q_j / d knot velocities
 
     def gap_jacobian(x):
         _, grads = separations(x)
@@ -308,7 +354,9 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
               {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
                "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
               {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian},
-              {"type": "ineq", "fun": hand.margins, "jac": hand.jacobian}]
+              {"type": "ineq", "fun": hand.margins, "jac": hand.jacobian},
+              {"type": "ineq", "fun": lambda x: cell(x)[0],
+               "jac": lambda x: np.hstack([cell(x)[1], np.zeros((len(cell(x)[0]), 1))])}]
     x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
     bounds = [(-v, v) for v in v_bound] + [(None, None)]
     result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
