@@ -197,12 +197,31 @@ def test_an_escape_that_needed_the_arm_to_move_before_the_persons_approach_began
     assert approach_onset_s(kin, q_home, paused, 0.0, 0.0, 1.5) == pytest.approx(1.2, abs=ONSET_STEP_S + 1e-9)
 
 
+def _path_at_1ms(found, q_start):
+    """The witness's joint path every 1 ms from the logged state (at rest), by the rectangle rule."""
+    from cobotsafety.tools.campaign.escape import KNOTS
+
+    t0, t1 = found.window_s
+    knots_t = t0 + np.arange(KNOTS + 1) * (t1 - t0) / KNOTS
+    knots_v = np.vstack([np.zeros(len(q_start)), found.witness_rad_s])
+    fine = np.arange(t0, t1, 0.001)
+    v = np.stack([np.interp(fine, knots_t, knots_v[:, j]) for j in range(len(q_start))], axis=1)
+    return q_start + np.cumsum(v * 0.001, axis=0)
+
+
+def _separation_at_1ms(found, q_start, truth, kin) -> float:
+    """The witness's smallest true separation every 1 ms [m]."""
+    q = _path_at_1ms(found, q_start)
+    fine = found.window_s[0] + 0.001 * np.arange(len(q))
+    return min(truth.distance_m(*kin.capsules(qk), tk) for qk, tk in zip(q, fine))
+
+
 def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     """The witness, integrated at 1 ms from the logged state (at rest), stays within the iiwa's
     velocity and acceleration limits, its hand within the end-effector's speed and acceleration
     limits (finite differences of the hand's position; 1 % over at most, the search checks them
-    every quarter of a knot interval), and keeps the true separation (at most 1 cm below the
-    critical distance between the search's samples, which alone it guarantees)."""
+    every quarter of a knot interval), and keeps the true separation (the search checks it every
+    ``VERIFY_S``; 1 mm for this integration's rectangle rule)."""
     from cobotsafety.tools.campaign.escape import KNOTS, _Kinematics
 
     kin = _Kinematics("iiwa")
@@ -211,11 +230,8 @@ def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     knots_v = np.vstack([np.zeros(len(q_start)), found.witness_rad_s])
     assert np.all(np.abs(np.diff(knots_v, axis=0)) / np.diff(knots_t)[:, None] <= kin.a_max * (1 + 1e-6))
     assert np.all(np.abs(knots_v) <= kin.v_max * (1 + 1e-9))
-    fine = np.arange(t0, t1, 0.001)
-    v = np.stack([np.interp(fine, knots_t, knots_v[:, j]) for j in range(len(q_start))], axis=1)
-    q = q_start + np.cumsum(v * 0.001, axis=0)
-    worst = min(truth.distance_m(*kin.capsules(qk), tk) for qk, tk in zip(q[::10], fine[::10]))
-    assert worst >= critical_m - 0.01
+    q = _path_at_1ms(found, q_start)
+    assert _separation_at_1ms(found, q_start, truth, kin) >= critical_m - 1e-3
     hand = []
     for qk in np.vstack([q_start, q])[::5]:
         kin.arm.set_configuration(qk)
@@ -374,6 +390,28 @@ def test_an_escape_keeps_the_cell_the_controllers_keep(monkeypatch):
     handed = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
     assert handed.witness_rad_s is None or sampled_margins(handed).min() >= -CELL_TOLERANCE_M
     assert not np.allclose(handed.witness_rad_s, free.witness_rad_s) if handed.witness_rad_s is not None else True
+
+
+def test_an_escape_keeps_the_critical_distance_between_the_searchs_samples_too(monkeypatch):
+    """The person of the first scene: the search's optimum keeps the critical distance at its
+    16 samples and touches it at several, so between them the motion it found dipped 6 mm below
+    it (at 1 ms, integrated by the test); checked every ``VERIFY_S`` before it counts, the
+    escape it reports keeps it throughout. Without the check (``VERIFY_S`` longer than the
+    window) the dipping motion was counted."""
+    from cobotsafety.tools.campaign import escape
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))
+    t = np.arange(0.0, 3.0, 0.01)
+    held = np.tile(q_home, (len(t), 1))
+    checked = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
+    assert checked.exists
+    _assert_a_real_arm_could_follow(checked, q_home, truth, critical_m=0.1)
+    monkeypatch.setattr(escape, "VERIFY_S", 1e9)
+    unchecked = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
+    assert unchecked.exists and _separation_at_1ms(unchecked, q_home, truth, kin) < 0.1 - 0.003
 
 
 def test_a_campaign_persons_escapes_nest_from_the_window_to_detection_to_the_approach():

@@ -23,7 +23,9 @@ exactly and in ``q`` by forward differences of ``J_ee``. An escape existed when 
 a candidate tried first: brake to a stop, reverse the logged motion, or the steepest retreat at
 full or half speed, each reached at the acceleration limits or at a half or a quarter of them;
 SLSQP starts from the best) reaches the critical distance. The
-search is local: an escape found is certain (``Escape.witness_rad_s``, its knot velocities),
+search is local: an escape found is certain (``Escape.witness_rad_s``, its knot velocities,
+checked every ``VERIFY_S``; until 2026-12-07 the samples alone decided, and escapes that
+dipped below the critical distance between them counted, docs/campaign.md),
 "none" is the best SLSQP found, so ``breaches_with_escape`` is a lower bound. The window is a
 stated choice: the controller could have started earlier, so "no escape in the window" does not
 prove none existed before it. ``earliest_s`` starts the window later (never earlier): the
@@ -61,6 +63,13 @@ ONSET_CLOSING_M_S = 0.3
 #: How far [m] an optimiser's answer may be on the wrong side of the table or the reach and
 #: still count (SLSQP meets its constraints to about this; the controllers keep a 1 mm buffer).
 CELL_TOLERANCE_M = 1e-5
+#: The spacing [s] at which a motion the search found is checked before it counts as an
+#: escape (the separation, the joint limits, the cell); the search itself keeps them at
+#: ``SAMPLES`` times, between which a motion it finds can dip below the critical distance by
+#: millimetres (its optimum tends to touch it at many samples at once).
+VERIFY_S = 0.005
+#: How many times the search runs again with the times of such dips added to its samples.
+REFINE_ROUNDS = 3
 #: The spacing [s] of the true distances ``approach_onset_s`` differentiates.
 ONSET_STEP_S = 0.01
 
@@ -69,7 +78,7 @@ ONSET_STEP_S = 0.01
 class Escape:
     exists: bool
     best_min_distance_m: float
-    """The largest smallest true separation [m] found over the window."""
+    """The largest smallest true separation [m] found over the window (every ``VERIFY_S``)."""
     window_s: tuple[float, float]
     witness_rad_s: np.ndarray | None = None
     """The best trajectory's knot velocities (KNOTS, nv) [rad/s] (None when no candidate was
@@ -120,7 +129,7 @@ class _Kinematics:
         """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
         return self._at(q)[1][:3]
 
-    def cell_margins(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def cell_margins(self, q: np.ndarray, gradient: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """The cell's limitations every campaign controller keeps besides the person and the
         joint limits, at ``q``: ``(margins (m,) [m], their gradient d/dq (m, nv))``, kept where
         every margin is >= 0. The table (``TablePlane``: each capsule's two end points, from its
@@ -129,17 +138,21 @@ class _Kinematics:
         same objects an ``ArmController`` keeps by default (``approach_step.make_controller``)."""
         p_ee, J6, p0, p1 = self._at(q)
         model, radius = self.state.model, self.state.capsule_radius
-        pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
+        if gradient:
+            pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
         margins, gradients = [], []
         for c in range(self.table.skip_capsules, len(radius)):
             joint = int(self.state.capsule_joint_ids[c])
             for end in (p0[c], p1[c]):
                 margins.append(end[2] - radius[c] - self.table.height_m)
-                gradients.append(point_jacobian(model, self._data, joint, end)[2])
+                if gradient:
+                    gradients.append(point_jacobian(model, self._data, joint, end)[2])
         offset = p_ee - np.asarray(self.reach.shoulder, dtype=float)
         r = float(np.linalg.norm(offset))
-        radial = (offset / max(r, 1e-12)) @ J6[:3]
         margins += [r - self.reach.inner_m, self.reach.outer_m - r]
+        if not gradient:
+            return np.array(margins), None
+        radial = (offset / max(r, 1e-12)) @ J6[:3]
         gradients += [radial, -radial]
         return np.array(margins), np.array(gradients)
 
@@ -168,10 +181,14 @@ def _hat_integral(t: np.ndarray, centre: float, half_width: float) -> np.ndarray
 
 
 def _weights(window_s: float, points: int = SAMPLES) -> tuple[np.ndarray, np.ndarray]:
-    """``(w0 (points,), W (points, KNOTS))`` [s]: the position change at ``points`` evenly spaced
-    times (the last at the window's end) per unit of the starting velocity and of each knot's
-    velocity (velocity linear between knots)."""
-    times = np.linspace(window_s / points, window_s, points)
+    """``_weights_at`` ``points`` evenly spaced times (the last at the window's end)."""
+    return _weights_at(np.linspace(window_s / points, window_s, points), window_s)
+
+
+def _weights_at(times: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(w0 (m,), W (m, KNOTS))`` [s]: the position change at ``times`` (m,) [s, from the
+    window's start] per unit of the starting velocity and of each knot's velocity (velocity
+    linear between knots)."""
     h = window_s / KNOTS
     w0 = _hat_integral(times, 0.0, h)
     W = np.stack([_hat_integral(times, (k + 1) * h, h) for k in range(KNOTS)], axis=1)
@@ -251,7 +268,11 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
                   kinematics: _Kinematics | None = None, earliest_s: float | None = None) -> Escape:
     """Search the window around ``t_closest_s`` (run clock) for a motion keeping the true
     separation >= ``critical_m``; ``q_log`` (n, nq) at ``t_log`` (n,) is the run's trajectory;
-    the window starts ``LOOKBACK_S`` before ``t_closest_s``, or at ``earliest_s`` when later."""
+    the window starts ``LOOKBACK_S`` before ``t_closest_s``, or at ``earliest_s`` when later.
+    The search keeps the separation, the joint limits and the cell at ``SAMPLES`` times; a motion
+    it finds counts as an escape only when it keeps them at every ``VERIFY_S`` too (``_Verifier``);
+    when it dips between the samples, the times of its dips join the samples and the search runs
+    again, at most ``REFINE_ROUNDS`` times."""
     kin = kinematics or _Kinematics(robot, capsules)
     t0 = max(float(t_log[0]), t_closest_s - LOOKBACK_S, -np.inf if earliest_s is None else float(earliest_s))
     t1 = t_closest_s + LOOKAHEAD_S
@@ -263,111 +284,174 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
     else:
         v0 = np.zeros_like(q0)
     v0 = np.clip(v0, -kin.v_max, kin.v_max)
-    times = t0 + np.linspace(window / SAMPLES, window, SAMPLES)
-    humans = [truth.capsules_at(truth_offset_s + t) for t in times]
-    n = len(q0)
-    w0, W = _weights(window)
-    step = kin.a_max * window / KNOTS  # the most a knot's velocity may differ from the previous one
-    start_motion = q0 + np.outer(w0, v0)
-
-    def positions(x: np.ndarray) -> np.ndarray:
-        return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (SAMPLES, n)
-
-    hand = _HandRows(kin, q0, v0, window)
-    dq_dx = np.kron(W, np.eye(n))  # (SAMPLES n, KNOTS n): d q_j / d knot velocities
-
-    cache: dict = {}
-
-    def separations(x: np.ndarray):
-        key = x.tobytes()
-        if key not in cache:
-            cache.clear()
-            q = positions(x)
-            pairs = [kin.separation(q[j], *humans[j], truth.radius_m) for j in range(SAMPLES)]
-            cache[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
-        return cache[key]
-
-    cell_cache: dict = {}
-
-    def cell(x: np.ndarray):
-        """The table's and the reach's margins at the samples (``_Kinematics.cell_margins``),
-        and their Jacobian in the knot velocities."""
-        key = x.tobytes()
-        if key not in cell_cache:
-            cell_cache.clear()
-            q = positions(x)
-            rows = [kin.cell_margins(q[j]) for j in range(SAMPLES)]
-            jacobian = np.vstack([g @ dq_dx[j * n:(j + 1) * n] for j, (_, g) in enumerate(rows)])
-            cell_cache[key] = (np.concatenate([m for m, _ in rows]), jacobian)
-        return cell_cache[key]
-
-    # Acceleration rows: step -+ (x_k - x_{k-1}) >= 0, x_0 = v0.
-    difference = np.eye(KNOTS * n) - np.eye(KNOTS * n, k=-n)
-    previous = np.concatenate([v0, np.zeros((KNOTS - 1) * n)])
-    steps = np.tile(step, KNOTS)
-    v_bound = np.tile(kin.v_max, KNOTS)  # each knot's velocity limit
-
-    def accelerations(x: np.ndarray) -> np.ndarray:
-        change = difference @ x[: KNOTS * n] - previous
-        return np.concatenate([steps - change, steps + change])
-
-    def feasible(x: np.ndarray) -> bool:
-        q = positions(x)
-        return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
-                    and np.all(accelerations(x) >= -1e-9 * steps.max())
-                    and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
-                    and np.all(hand.margins(x) >= -1e-4)  # SLSQP's tolerance: 5e-5 of the hand's limits
-                and np.all(cell(x)[0] >= -CELL_TOLERANCE_M))
-
-    # Candidates first, each reached at the acceleration limits or a half or a quarter of them
-    # (the hand's own limits may allow no more): brake to a stop, the logged motion reversed (a
-    # retreat along it), the steepest retreat at full or half speed.
     i1 = int(np.clip(np.searchsorted(t_log, min(t1, float(t_log[-1]))), 0, len(t_log) - 1))
     logged = (np.asarray(q_log[i1]) - q0) / window
-    braking = _reach(v0, np.zeros(n), step).ravel()
-    d_brake, grads_brake = separations(braking)
-    worst = int(np.argmin(d_brake))
-    steepest = kin.v_max * np.sign(grads_brake[worst])  # every joint growing the worst separation
-    best, start = -np.inf, None
-    for target, share in itertools.product((np.zeros(n), np.clip(-logged, -kin.v_max, kin.v_max), steepest,
-                                            0.5 * steepest), (1.0, 0.5, 0.25)):
-        x = _reach(v0, target, share * step).ravel()
-        if feasible(x):
-            value = float(separations(x)[0].min())
-            if value > best:
-                best, start = value, x
-            if best >= critical_m:
-                return Escape(True, best, (t0, t1), start.reshape(KNOTS, n))
-    if start is None:
-        start = braking
-    # Epigraph: maximise s subject to d_j(x) >= s, joint and acceleration limits, velocity bounds.
-
-    def gap_jacobian(x):
-        _, grads = separations(x)
-        rows = np.einsum("jn,jnk->jk", grads, dq_dx.reshape(SAMPLES, n, KNOTS * n))
-        return np.hstack([rows, -np.ones((SAMPLES, 1))])
-
-    acceleration_jacobian = np.hstack([np.vstack([-difference, difference]), np.zeros((2 * KNOTS * n, 1))])
-    limits = [{"type": "ineq", "fun": lambda x: separations(x)[0] - x[-1], "jac": gap_jacobian},
-              {"type": "ineq", "fun": lambda x: (positions(x) - kin.lower).ravel(),
-               "jac": lambda x: np.hstack([dq_dx, np.zeros((SAMPLES * n, 1))])},
-              {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
-               "jac": lambda x: np.hstack([-dq_dx, np.zeros((SAMPLES * n, 1))])},
-              {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian},
-              {"type": "ineq", "fun": hand.margins, "jac": hand.jacobian},
-              {"type": "ineq", "fun": lambda x: cell(x)[0],
-               "jac": lambda x: np.hstack([cell(x)[1], np.zeros((len(cell(x)[0]), 1))])}]
-    x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
-    bounds = [(-v, v) for v in v_bound] + [(None, None)]
-    result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
-                      bounds=bounds, constraints=limits, options={"maxiter": maxiter, "ftol": 1e-5})
-    x = np.clip(result.x[:-1], -v_bound, v_bound)
-    if feasible(x):
-        value = float(separations(x)[0].min())
+    search = _Search(kin, q0, v0, window, logged, lambda t: truth.capsules_at(truth_offset_s + t0 + t),
+                     truth.radius_m, maxiter)
+    verifier = _Verifier(kin, q0, v0, window, lambda p0, p1, r, t: truth.distance_m(p0, p1, r, truth_offset_s + t0 + t))
+    times = np.linspace(window / SAMPLES, window, SAMPLES)
+    best, witness = -np.inf, None
+    for _ in range(REFINE_ROUNDS + 1):
+        found = search.run(times, critical_m, verifier)
+        if found is None:  # no motion within the limits (at the samples)
+            break
+        x, at_samples, value, dips = found
         if value > best:
-            best, start = value, x
-    witness = None if best == -np.inf else start.reshape(KNOTS, n)
-    return Escape(bool(best >= critical_m), best, (t0, t1), witness)
+            best, witness = value, x
+        if value >= critical_m or at_samples < critical_m or not dips.size:
+            break  # an escape; or none even at the samples, which more samples cannot give
+        times = np.union1d(times, dips)
+    exists = witness is not None and best >= critical_m
+    return Escape(bool(exists), best, (t0, t1), None if witness is None else witness.reshape(KNOTS, -1))
+
+
+class _Verifier:
+    """A motion's true separation, joint limits and cell every ``VERIFY_S`` over the window:
+    ``check(x) -> (smallest separation [m] where the limits and the cell hold, else -inf; the
+    times of its dips below ``critical_m`` and of any limit or cell it breaks)``."""
+
+    def __init__(self, kin: _Kinematics, q0: np.ndarray, v0: np.ndarray, window_s: float, distance):
+        points = max(int(np.ceil(window_s / VERIFY_S)), SAMPLES)
+        self.times = np.linspace(window_s / points, window_s, points)
+        w0, self.W = _weights_at(self.times, window_s)
+        self.start = q0 + np.outer(w0, v0)
+        self.kin, self.distance = kin, distance
+
+    def check(self, x: np.ndarray, critical_m: float) -> tuple[float, np.ndarray]:
+        kin = self.kin
+        q = self.start + self.W @ x[: KNOTS * len(self.start[0])].reshape(KNOTS, -1)
+        d = np.array([self.distance(*kin.capsules(qk), t) for qk, t in zip(q, self.times)])
+        broken = np.array([np.any(qk < kin.lower - 1e-9) or np.any(qk > kin.upper + 1e-9)
+                           or np.any(kin.cell_margins(qk, gradient=False)[0] < -CELL_TOLERANCE_M) for qk in q])
+        low = d < critical_m
+        # The dips' deepest times (a local minimum of each stretch below the critical distance)
+        # and every time a limit or the cell breaks.
+        minima = low & np.r_[True, d[1:] <= d[:-1]] & np.r_[d[:-1] <= d[1:], True]
+        dips = self.times[minima | broken]
+        return (-np.inf if broken.any() else float(d.min())), dips
+
+
+class _Search:
+    """The search at given sample times: the candidate motions, then SLSQP from the best, each
+    kept only when ``_Verifier`` finds it within every limit at every ``VERIFY_S``."""
+
+    def __init__(self, kin: _Kinematics, q0: np.ndarray, v0: np.ndarray, window_s: float, logged: np.ndarray,
+                 human_at, human_radius: np.ndarray, maxiter: int):
+        self.kin, self.q0, self.v0, self.window = kin, q0, v0, window_s
+        self.logged, self.human_at, self.radius, self.maxiter = logged, human_at, human_radius, maxiter
+        self.hand = _HandRows(kin, q0, v0, window_s)
+        self.step = kin.a_max * window_s / KNOTS  # the most a knot's velocity may differ from the previous one
+
+    def run(self, times: np.ndarray, critical_m: float, verifier: _Verifier):
+        """``(x, its smallest separation at the samples, at every VERIFY_S (-inf where it
+        breaks a limit or the cell there), the times of its dips)`` of the best motion found at
+        ``times`` (relative to the window's start), or None when none keeps the limits there."""
+        kin, q0, v0, hand, step = self.kin, self.q0, self.v0, self.hand, self.step
+        n, samples = len(q0), len(times)
+        humans = [self.human_at(t) for t in times]
+        w0, W = _weights_at(times, self.window)
+        start_motion = q0 + np.outer(w0, v0)
+        dq_dx = np.kron(W, np.eye(n))  # (samples n, KNOTS n): d q_j / d knot velocities
+
+        def positions(x: np.ndarray) -> np.ndarray:
+            return start_motion + W @ x[: KNOTS * n].reshape(KNOTS, n)  # (samples, n)
+
+        cache: dict = {}
+
+        def separations(x: np.ndarray):
+            key = x.tobytes()
+            if key not in cache:
+                cache.clear()
+                q = positions(x)
+                pairs = [kin.separation(q[j], *humans[j], self.radius) for j in range(samples)]
+                cache[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+            return cache[key]
+
+        cell_cache: dict = {}
+
+        def cell(x: np.ndarray):
+            """The table's and the reach's margins at the samples (``_Kinematics.cell_margins``),
+            and their Jacobian in the knot velocities."""
+            key = x.tobytes()
+            if key not in cell_cache:
+                cell_cache.clear()
+                q = positions(x)
+                rows = [kin.cell_margins(q[j]) for j in range(samples)]
+                jacobian = np.vstack([g @ dq_dx[j * n:(j + 1) * n] for j, (_, g) in enumerate(rows)])
+                cell_cache[key] = (np.concatenate([m for m, _ in rows]), jacobian)
+            return cell_cache[key]
+
+        # Acceleration rows: step -+ (x_k - x_{k-1}) >= 0, x_0 = v0.
+        difference = np.eye(KNOTS * n) - np.eye(KNOTS * n, k=-n)
+        previous = np.concatenate([v0, np.zeros((KNOTS - 1) * n)])
+        steps = np.tile(step, KNOTS)
+        v_bound = np.tile(kin.v_max, KNOTS)  # each knot's velocity limit
+
+        def accelerations(x: np.ndarray) -> np.ndarray:
+            change = difference @ x[: KNOTS * n] - previous
+            return np.concatenate([steps - change, steps + change])
+
+        def feasible(x: np.ndarray) -> bool:
+            q = positions(x)
+            return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
+                        and np.all(accelerations(x) >= -1e-9 * steps.max())
+                        and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
+                        and np.all(hand.margins(x) >= -1e-4)  # SLSQP's tolerance: 5e-5 of the hand's limits
+                        and np.all(cell(x)[0] >= -CELL_TOLERANCE_M))
+
+        def verified(x: np.ndarray, at_samples: float):
+            value, dips = verifier.check(x, critical_m)
+            return x, at_samples, value, dips
+
+        # Candidates first, each reached at the acceleration limits or a half or a quarter of
+        # them (the hand's own limits may allow no more): brake to a stop, the logged motion
+        # reversed (a retreat along it), the steepest retreat at full or half speed. One that
+        # keeps the critical distance at the samples and at every VERIFY_S is an escape.
+        braking = _reach(v0, np.zeros(n), step).ravel()
+        d_brake, grads_brake = separations(braking)
+        worst = int(np.argmin(d_brake))
+        steepest = kin.v_max * np.sign(grads_brake[worst])  # every joint growing the worst separation
+        best, start = -np.inf, None
+        for target, share in itertools.product((np.zeros(n), np.clip(-self.logged, -kin.v_max, kin.v_max),
+                                                steepest, 0.5 * steepest), (1.0, 0.5, 0.25)):
+            x = _reach(v0, target, share * step).ravel()
+            if feasible(x):
+                value = float(separations(x)[0].min())
+                if value >= critical_m:
+                    found = verified(x, value)
+                    if found[2] >= critical_m:
+                        return found
+                if value > best:
+                    best, start = value, x
+        if start is None:
+            start = braking
+        # Epigraph: maximise s subject to d_j(x) >= s, joint and acceleration limits, velocity bounds.
+
+        def gap_jacobian(x):
+            _, grads = separations(x)
+            rows = np.einsum("jn,jnk->jk", grads, dq_dx.reshape(samples, n, KNOTS * n))
+            return np.hstack([rows, -np.ones((samples, 1))])
+
+        acceleration_jacobian = np.hstack([np.vstack([-difference, difference]), np.zeros((2 * KNOTS * n, 1))])
+        limits = [{"type": "ineq", "fun": lambda x: separations(x)[0] - x[-1], "jac": gap_jacobian},
+                  {"type": "ineq", "fun": lambda x: (positions(x) - kin.lower).ravel(),
+                   "jac": lambda x: np.hstack([dq_dx, np.zeros((samples * n, 1))])},
+                  {"type": "ineq", "fun": lambda x: (kin.upper - positions(x)).ravel(),
+                   "jac": lambda x: np.hstack([-dq_dx, np.zeros((samples * n, 1))])},
+                  {"type": "ineq", "fun": accelerations, "jac": lambda x: acceleration_jacobian},
+                  {"type": "ineq", "fun": hand.margins, "jac": hand.jacobian},
+                  {"type": "ineq", "fun": lambda x: cell(x)[0],
+                   "jac": lambda x: np.hstack([cell(x)[1], np.zeros((len(cell(x)[0]), 1))])}]
+        x0 = np.concatenate([start, [float(separations(start)[0].min())]])  # from the best candidate
+        bounds = [(-v, v) for v in v_bound] + [(None, None)]
+        result = minimize(lambda x: -x[-1], x0, jac=lambda x: np.r_[np.zeros(KNOTS * n), -1.0], method="SLSQP",
+                          bounds=bounds, constraints=limits, options={"maxiter": self.maxiter, "ftol": 1e-5})
+        x = np.clip(result.x[:-1], -v_bound, v_bound)
+        if feasible(x) and float(separations(x)[0].min()) > best:
+            best, start = float(separations(x)[0].min()), x
+        if best == -np.inf:
+            return None
+        return verified(start, best)
 
 
 def approach_onset_s(kin: _Kinematics, q_closest: np.ndarray, truth: TruthHuman, truth_offset_s: float,
