@@ -242,19 +242,25 @@ def _assert_a_real_arm_could_follow(found, q_start, truth, critical_m):
     assert np.linalg.norm(hand_a, axis=1).max() <= kin.ee_acc * 1.01
 
 
+def _resting_iiwa(start_gap_m: float, stop_gap_m: float, speed_m_s: float):
+    """``(kinematics, q_home, truth, t, held)``: the iiwa's escape kinematics, its log at rest at
+    home for 3 s, and a person closing on its hand from +y (``_ApproachingHuman``)."""
+    from cobotsafety.tools.campaign.escape import _Kinematics
+
+    kin = _Kinematics("iiwa")
+    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
+    truth = _truth(_ApproachingHuman(p_ee, start_gap_m, stop_gap_m, speed_m_s))
+    t = np.arange(0.0, 3.0, 0.01)
+    return kin, q_home, truth, t, np.tile(q_home, (len(t), 1))
+
+
 def test_an_escape_needs_acceleration_the_arm_has():
     """A person closing 0.4 m on the resting iiwa's hand at 1 m/s, stopping 0.1 m from its
     axis: at once at full joint speed the hand could get clear (the search finds it with the
     acceleration limits lifted), but the iiwa needs 0.5 s to reach its joint speeds (its
     acceleration limits), and ramping up it covers well under half as far in those 0.4 s: no
     escape a real arm could take."""
-    from cobotsafety.tools.campaign.escape import _Kinematics
-
-    kin = _Kinematics("iiwa")
-    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
-    truth = _truth(_ApproachingHuman(p_ee, 0.5, 0.1, 1.0))
-    t = np.arange(0.0, 3.0, 0.01)
-    held = np.tile(q_home, (len(t), 1))
+    kin, q_home, truth, t, held = _resting_iiwa(0.5, 0.1, 1.0)
     limited = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
     kin.a_max, kin.ee_acc = kin.a_max * 1e3, kin.ee_acc * 1e3
     instant = escape_exists("iiwa", held, t, 1.0, truth, 0.0, critical_m=0.08, kinematics=kin)
@@ -268,14 +274,8 @@ def test_an_escape_keeps_the_hand_within_its_own_limits():
     and acceleration limits lifted), but the iiwa's hand may not exceed 1 m/s and 2 m/s^2
     (``MotionLimits``, which the controllers keep): the escape the search allows is one within
     every limit a controller must keep."""
-    from cobotsafety.tools.campaign.escape import _Kinematics
-
-    kin = _Kinematics("iiwa")
+    kin, q_home, truth, t, held = _resting_iiwa(0.8, 0.1, 1.5)
     assert (kin.ee_speed, kin.ee_acc) == (1.0, 2.0)
-    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
-    truth = _truth(_ApproachingHuman(p_ee, 0.8, 0.1, 1.5))
-    t = np.arange(0.0, 3.0, 0.01)
-    held = np.tile(q_home, (len(t), 1))
     limited = escape_exists("iiwa", held, t, 0.67, truth, 0.0, critical_m=0.1, kinematics=kin)
     kin.ee_speed, kin.ee_acc = 1e3, 1e3
     free = escape_exists("iiwa", held, t, 0.67, truth, 0.0, critical_m=0.1, kinematics=kin)
@@ -365,15 +365,11 @@ def test_an_escape_keeps_the_cell_the_controllers_keep(monkeypatch):
 
     from cobotsafety.arm.limitations import ReachLimits
     from cobotsafety.tools.campaign import escape
-    from cobotsafety.tools.campaign.escape import CELL_TOLERANCE_M, _Kinematics, _weights
+    from cobotsafety.tools.campaign.escape import CELL_TOLERANCE_M, _weights
 
-    kin = _Kinematics("iiwa")
-    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
-    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))
-    t = np.arange(0.0, 3.0, 0.01)
-    held = np.tile(q_home, (len(t), 1))
+    kin, q_home, truth, t, held = _resting_iiwa(1.0, 0.1, 0.8)
     shoulder = kin.reach.shoulder
-    radius = float(np.linalg.norm(p_ee - np.asarray(shoulder)))
+    radius = float(np.linalg.norm(kin.state.p_world_ee - np.asarray(shoulder)))
 
     def sampled_margins(found):
         _, W = _weights(found.window_s[1] - found.window_s[0])
@@ -399,13 +395,8 @@ def test_an_escape_keeps_the_critical_distance_between_the_searchs_samples_too(m
     escape it reports keeps it throughout. Without the check (``VERIFY_S`` longer than the
     window) the dipping motion was counted."""
     from cobotsafety.tools.campaign import escape
-    from cobotsafety.tools.campaign.escape import _Kinematics
 
-    kin = _Kinematics("iiwa")
-    q_home, p_ee = kin.state.q.copy(), kin.state.p_world_ee.copy()
-    truth = _truth(_ApproachingHuman(p_ee, 1.0, 0.1, 0.8))
-    t = np.arange(0.0, 3.0, 0.01)
-    held = np.tile(q_home, (len(t), 1))
+    kin, q_home, truth, t, held = _resting_iiwa(1.0, 0.1, 0.8)
     checked = escape_exists("iiwa", held, t, 1.5, truth, 0.0, critical_m=0.1, kinematics=kin)
     assert checked.exists
     _assert_a_real_arm_could_follow(checked, q_home, truth, critical_m=0.1)
