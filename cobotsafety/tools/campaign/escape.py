@@ -14,8 +14,9 @@ campaign controller keeps, the table and the reach (``_Kinematics.cell_margins``
 samples as the separation. So an escape is one they were allowed to take (jerk is not modelled;
 until 2026-12-07 the table and the reach were not either, and the escapes found for 17 of the
 anticipative controller's 104 escapable breaches after detection went through the table or
-beyond the reach; with both kept the search finds others for all but one, docs/campaign.md). It maximises the smallest separation ``s`` at ``SAMPLES`` times
-(epigraph form: maximise ``s`` subject to ``d_j(x) >= s``). The separation's gradients are
+beyond the reach; with both kept the search finds others for all but one, docs/campaign.md).
+It maximises the smallest separation ``s`` at ``SAMPLES`` times (epigraph form: maximise ``s``
+subject to ``d_j(x) >= s``). The separation's gradients are
 exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
 the robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat
 function up to sample ``j``; the hand's rows differentiate its velocity ``J_ee(q) v`` in ``v``
