@@ -130,7 +130,12 @@ class _Kinematics:
         """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
         return self._at(q)[1][:3]
 
-    def cell_margins(self, q: np.ndarray, gradient: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    def outside_joint_limits(self, q: np.ndarray) -> np.ndarray:
+        """Per configuration (the last axis of ``q``): any joint not within its limits (1e-9 rad;
+        a NaN is not within)."""
+        return ~np.all((q >= self.lower - 1e-9) & (q <= self.upper + 1e-9), axis=-1)
+
+    def cell_margins(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The cell's limitations every campaign controller keeps besides the person and the
         joint limits, at ``q``: ``(margins (m,) [m], their gradient d/dq (m, nv))``, kept where
         every margin is >= 0. The table (``TablePlane``: each capsule's two end points, from its
@@ -138,24 +143,28 @@ class _Kinematics:
         (``ReachLimits``: the hand between its inner and extended reach from the shoulder), the
         same objects an ``ArmController`` keeps by default (``approach_step.make_controller``)."""
         p_ee, J6, p0, p1 = self._at(q)
-        model, radius = self.state.model, self.state.capsule_radius
-        if gradient:
-            pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
-        margins, gradients = [], []
-        for c in range(self.table.skip_capsules, len(radius)):
-            joint = int(self.state.capsule_joint_ids[c])
-            for end in (p0[c], p1[c]):
-                margins.append(end[2] - radius[c] - self.table.height_m)
-                if gradient:
-                    gradients.append(point_jacobian(model, self._data, joint, end)[2])
+        model = self.state.model
+        pin.computeJointJacobians(model, self._data, np.array(q, dtype=float).reshape(-1))
+        gradients = [point_jacobian(model, self._data, int(self.state.capsule_joint_ids[c]), end)[2]
+                     for c in range(self.table.skip_capsules, len(self.state.capsule_radius)) for end in (p0[c], p1[c])]
         offset = p_ee - np.asarray(self.reach.shoulder, dtype=float)
-        r = float(np.linalg.norm(offset))
-        margins += [r - self.reach.inner_m, self.reach.outer_m - r]
-        if not gradient:
-            return np.array(margins), None
-        radial = (offset / max(r, 1e-12)) @ J6[:3]
-        gradients += [radial, -radial]
-        return np.array(margins), np.array(gradients)
+        radial = (offset / max(float(np.linalg.norm(offset)), 1e-12)) @ J6[:3]
+        return self._cell_values(p_ee, p0, p1), np.array(gradients + [radial, -radial])
+
+    def capsules_and_cell(self, q: np.ndarray):
+        """``(capsules(q), cell_margins(q)'s margins)`` from one pass of the kinematics."""
+        p_ee, _, p0, p1 = self._at(q)
+        radius = self.state.capsule_radius
+        return (p0[self.skip:], p1[self.skip:], radius[self.skip:]), self._cell_values(p_ee, p0, p1)
+
+    def _cell_values(self, p_ee: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+        """``cell_margins``' margins from the kinematics at ``q``: the table's rows (capsules
+        from ``skip_capsules`` on, both ends), then the reach's inner and extended rows."""
+        radius = self.state.capsule_radius
+        margins = [end[2] - radius[c] - self.table.height_m
+                   for c in range(self.table.skip_capsules, len(radius)) for end in (p0[c], p1[c])]
+        r = float(np.linalg.norm(p_ee - np.asarray(self.reach.shoulder, dtype=float)))
+        return np.array(margins + [r - self.reach.inner_m, self.reach.outer_m - r])
 
     def separation(self, q: np.ndarray, hp0, hp1, hr) -> tuple[float, np.ndarray]:
         """(separation [m], its gradient d/dq (n,)) against human capsules (k, 3), (k, 3), (k,)."""
@@ -302,8 +311,7 @@ def escape_exists(robot: str, q_log: np.ndarray, t_log: np.ndarray, t_closest_s:
         if value >= critical_m or at_samples < critical_m or not dips.size:
             break  # an escape; or none even at the samples, which more samples cannot give
         times = np.union1d(times, dips)
-    exists = witness is not None and best >= critical_m
-    return Escape(bool(exists), best, (t0, t1), None if witness is None else witness.reshape(KNOTS, -1))
+    return Escape(bool(best >= critical_m), best, (t0, t1), None if witness is None else witness.reshape(KNOTS, -1))
 
 
 class _Verifier:
@@ -321,9 +329,9 @@ class _Verifier:
     def check(self, x: np.ndarray, critical_m: float) -> tuple[float, np.ndarray]:
         kin = self.kin
         q = self.start + self.W @ x[: KNOTS * len(self.start[0])].reshape(KNOTS, -1)
-        d = np.array([self.distance(*kin.capsules(qk), t) for qk, t in zip(q, self.times)])
-        broken = np.array([np.any(qk < kin.lower - 1e-9) or np.any(qk > kin.upper + 1e-9)
-                           or np.any(kin.cell_margins(qk, gradient=False)[0] < -CELL_TOLERANCE_M) for qk in q])
+        samples = [kin.capsules_and_cell(qk) for qk in q]
+        d = np.array([self.distance(*capsules, t) for (capsules, _), t in zip(samples, self.times)])
+        broken = kin.outside_joint_limits(q) | np.array([np.any(cell < -CELL_TOLERANCE_M) for _, cell in samples])
         low = d < critical_m
         # The dips' deepest times (a local minimum of each stretch below the critical distance)
         # and every time a limit or the cell breaks.
@@ -394,7 +402,7 @@ class _Search:
 
         def feasible(x: np.ndarray) -> bool:
             q = positions(x)
-            return bool(np.all(q >= kin.lower - 1e-9) and np.all(q <= kin.upper + 1e-9)
+            return bool(not kin.outside_joint_limits(q).any()
                         and np.all(accelerations(x) >= -1e-9 * steps.max())
                         and np.all(np.abs(x[: KNOTS * n]) <= v_bound + 1e-12)
                         and np.all(hand.margins(x) >= -1e-4)  # SLSQP's tolerance: 5e-5 of the hand's limits
