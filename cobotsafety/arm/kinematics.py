@@ -7,6 +7,12 @@ placement[j] * M_joint(q)``; the world Jacobian column of joint ``i`` at a point
 ``a_i x (p - o_i)`` (translation) and ``a_i`` (rotation), ``a_i`` the joint's axis in the world.
 ``integrate`` is ``pin.integrate``; ``log3`` is pinocchio's ``log3`` (same branches).
 Tests compare each against pinocchio (``tests/test_arm_kinematics.py``).
+
+``frame_jacobian``, ``drift_along`` and ``_world_axis`` are inlined where they are called
+(``inline="always"``): a compiled call that takes arrays costs two atomic reference counts per
+array, and inside the rows' per-pair helpers (``limitations/point_row.py``) a call also keeps
+numba from pruning the counts of every array the helper takes; inlined, the human-aware panda
+step makes ~1,340 of them instead of ~1,960 (``docs/motion_limits.md``, 2026-12-07).
 """
 
 from __future__ import annotations
@@ -74,7 +80,7 @@ def attached_point(oR, op, joint: int, p_local, out):  # pragma: no cover - comp
         out[r] = op[joint, r] + oR[joint, r, 0] * p_local[0] + oR[joint, r, 1] * p_local[1] + oR[joint, r, 2] * p_local[2]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _world_axis(oR, axes, i: int):  # pragma: no cover - compiled
     x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
     return (oR[i, 0, 0] * x + oR[i, 0, 1] * y + oR[i, 0, 2] * z, oR[i, 1, 0] * x + oR[i, 1, 1] * y + oR[i, 1, 2] * z,
@@ -94,7 +100,7 @@ def point_jacobian_row(u, p, joint: int, oR, op, axes, idx_v, support, out):  # 
         out[idx_v[i]] = u[0] * (ay * rz - az * ry) + u[1] * (az * rx - ax * rz) + u[2] * (ax * ry - ay * rx)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def frame_jacobian(p, joint: int, oR, op, axes, idx_v, support, J):  # pragma: no cover - compiled
     """``J`` (6, nv): LOCAL_WORLD_ALIGNED Jacobian of a frame at ``p`` fixed to ``joint``."""
     J[:, :] = 0.0
@@ -142,7 +148,7 @@ def fastest_capsule_end(oR, op, axes, parent, idx_v, cap_joint, p0, p1, qdot):  
     return fastest
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def drift_along(u, J, qdot):  # pragma: no cover - compiled
     """``u . (dJ/dt qdot)`` [m/s^2]: how fast the point of the frame Jacobian ``J`` (6, nv;
     ``frame_jacobian``'s, columns in the chain's order, a parent before its child) accelerates
