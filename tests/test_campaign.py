@@ -83,6 +83,30 @@ def test_the_separation_gradient_matches_finite_differences():
     np.testing.assert_allclose(grad, numeric, atol=1e-5)
 
 
+@pytest.mark.parametrize("robot", ["iiwa", "panda"])
+def test_the_hands_velocity_turns_with_the_pose_as_pinocchios_jacobian_time_variation(robot):
+    """``hand_velocity_turn(J6, v) @ d`` is ``d(J_ee v)/dq`` along ``d``: pinocchio's time
+    variation of the hand's Jacobian at the joint velocity ``d`` (``dJ/dt = sum_k dJ/dq_k d_k``),
+    applied to ``v``, at random poses and velocities."""
+    import pinocchio as pin
+
+    from cobotsafety.tools.campaign.escape import _Kinematics, hand_velocity_turn
+
+    kin = _Kinematics(robot)
+    model = kin.state.model
+    data = model.createData()
+    frame = model.getFrameId(kin.state.spec.ee_frame)
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        q = pin.neutral(model) + rng.uniform(-1.0, 1.0, model.nq) * 0.5 * (model.upperPositionLimit
+                                                                            - model.lowerPositionLimit)
+        v, d = rng.uniform(-1.0, 1.0, model.nv), rng.uniform(-1.0, 1.0, model.nv)
+        pin.computeJointJacobiansTimeVariation(model, data, q, d)
+        pin.updateFramePlacements(model, data)
+        dJ_dt = pin.getFrameJacobianTimeVariation(model, data, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        np.testing.assert_allclose(hand_velocity_turn(kin.frame_jacobian(q), v) @ d, dJ_dt @ v, atol=1e-12)
+
+
 def test_the_hand_rows_match_the_hands_path_and_their_gradient_finite_differences():
     """The escape search's hand rows (``_HandRows``) at random knot velocities: the speed margins
     are those of the hand's velocity from finite differences of its position along the knots'

@@ -19,8 +19,9 @@ It maximises the smallest separation ``s`` at ``SAMPLES`` times (epigraph form: 
 subject to ``d_j(x) >= s``). The separation's gradients are
 exact: ``d d_j / d q = u^T J_c`` at the closest pair (``u`` from the human's closest point to
 the robot's, ``J_c`` the robot point's Jacobian), times the integral of each knot's hat
-function up to sample ``j``; the hand's rows differentiate its velocity ``J_ee(q) v`` in ``v``
-exactly and in ``q`` by forward differences of ``J_ee``. An escape existed when the optimum (or
+function up to sample ``j``; the hand's rows differentiate its velocity ``J_ee(q) v`` exactly,
+in ``q`` from ``J_ee``'s own columns (``hand_velocity_turn``; by forward differences of ``J_ee``
+until 2026-12-07). An escape existed when the optimum (or
 a candidate tried first: brake to a stop, reverse the logged motion, or the steepest retreat at
 full or half speed, each reached at the acceleration limits or at a half or a quarter of them;
 SLSQP starts from the best) reaches the critical distance. The
@@ -130,6 +131,11 @@ class _Kinematics:
         """The end-effector's translation Jacobian (3, nv) at ``q`` (world-aligned)."""
         return self._at(q)[1][:3]
 
+    def frame_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """The end-effector's Jacobian (6, nv) at ``q``: translation, then the joints' world
+        axes (LOCAL_WORLD_ALIGNED)."""
+        return self._at(q)[1]
+
     def outside_joint_limits(self, q: np.ndarray) -> np.ndarray:
         """Per configuration (the last axis of ``q``): any joint not within its limits (1e-9 rad;
         a NaN is not within)."""
@@ -214,12 +220,27 @@ def _velocity_weights(window_s: float, points: int) -> tuple[np.ndarray, np.ndar
     return hat(0.0), np.stack([hat((k + 1) * h) for k in range(KNOTS)], axis=1)
 
 
+def hand_velocity_turn(J6: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``d(J_ee(q) v)/dq`` (3, n): how the hand's velocity at the joint velocity ``v`` turns with
+    the pose, from its Jacobian ``J6`` (6, n; ``_Kinematics.frame_jacobian``) alone. For revolute
+    joints in chain order, column ``i``'s translation ``j_i = z_i x (p - o_i)`` changes with
+    ``q_k`` at ``z_min(i,k) x j_max(i,k)``, so column ``k`` of the result is
+    ``w_k x j_k + z_k x t_k`` with ``w_k = sum_{i<k} v_i z_i`` and ``t_k = sum_{i>=k} v_i j_i``
+    (``kinematics.drift_along`` is ``u . turn qdot`` at ``v = qdot``, for one row in the compiled
+    step; the tests compare this with pinocchio's ``getFrameJacobianTimeVariation``)."""
+    j, z = J6[:3], J6[3:]
+    jv, zv = j * v, z * v
+    t = np.cumsum(jv[:, ::-1], axis=1)[:, ::-1]
+    w = np.cumsum(zv, axis=1) - zv
+    return np.cross(w, j, axis=0) + np.cross(z, t, axis=0)
+
+
 class _HandRows:
     """The hand's rows of the search over knot velocities ``x`` (KNOTS n, then ``s``), from
     ``q0``, ``v0`` over ``window_s``: at every quarter of a knot interval its velocity
     ``J_ee(q) v``, its speed and its acceleration over each quarter within the robot's
     end-effector limits, as margins ``1 - (value / limit)^2`` (``margins``, >= 0 when kept),
-    and their Jacobian (``jacobian``: exact in ``v``, by forward differences of ``J_ee`` in q)."""
+    and their Jacobian (``jacobian``: exact, ``hand_velocity_turn`` for the pose's part)."""
 
     def __init__(self, kin: _Kinematics, q0: np.ndarray, v0: np.ndarray, window_s: float):
         self.kin, self.n = kin, len(q0)
@@ -239,11 +260,10 @@ class _HandRows:
             kin, n = self.kin, self.n
             X = x[: KNOTS * n].reshape(KNOTS, n)
             q, v = self.q_start + self.HW @ X, self.v_start + self.HU @ X
-            jacobians = [kin.hand_jacobian(qk) for qk in q]
+            frames = [kin.frame_jacobian(qk) for qk in q]
+            jacobians = [J6[:3] for J6 in frames]
             u = np.array([J @ vk for J, vk in zip(jacobians, v)])
-            # d(J_ee v)/dq by forward differences of J_ee (the velocity's change with the pose).
-            turn = [np.stack([(kin.hand_jacobian(qk + 1e-6 * e) - J) @ vk / 1e-6 for e in np.eye(n)], axis=1)
-                    for qk, vk, J in zip(q, v, jacobians)]
+            turn = [hand_velocity_turn(J6, vk) for J6, vk in zip(frames, v)]
             du = np.array([np.kron(self.HU[g][None, :], jacobians[g]) + np.kron(self.HW[g][None, :], turn[g])
                            for g in range(HAND_POINTS)])
             self._cache[key] = (u, du)
