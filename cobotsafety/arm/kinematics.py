@@ -12,7 +12,7 @@ Tests compare each against pinocchio (``tests/test_arm_kinematics.py``).
 (``inline="always"``): a compiled call that takes arrays costs two atomic reference counts per
 array, and inside the rows' per-pair helpers (``limitations/point_row.py``) a call also keeps
 numba from pruning the counts of every array the helper takes; inlined, the human-aware panda
-step makes ~1,340 of them instead of ~1,960 (``docs/motion_limits.md``, 2026-12-07).
+step makes ~1,340 of them instead of ~1,960 (``docs/step_profile.md``, 2026-12-07).
 """
 
 from __future__ import annotations
