@@ -160,6 +160,21 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
     assert kind_rows(unknown, np.zeros(12), 0, 0, kin, hum, np.inf, out, 0, np.empty(1)) == -1
 
 
+def test_the_human_buffer_is_the_five_arrays_end_to_end_in_order():
+    """``human_buffer`` (compiled) against numpy's concatenation of the five flattened arrays,
+    contiguous or not, for 1 to 6 capsules; ``unpack_human`` gives them back."""
+    rng = np.random.default_rng(24)
+    for h in range(1, 7):
+        wide = rng.standard_normal((h, 6))
+        p0, p1 = wide[:, ::2], rng.standard_normal((h, 3))  # (a strided view and a plain array)
+        radius, v0, v1 = rng.random(h), rng.standard_normal((3, h)).T, rng.standard_normal((h, 3))
+        buffer = human_kind.human_buffer(p0, p1, radius, v0, v1)
+        assert np.array_equal(buffer, np.concatenate([a.reshape(-1) for a in (p0, p1, radius, v0, v1)]))
+        back = human_kind.unpack_human(buffer, 0.0)
+        for got, given in zip(back, (p0, p1, radius, v0, v1)):
+            assert np.array_equal(got, given)
+
+
 class Fence:
     """A limitation nobody registered."""
 

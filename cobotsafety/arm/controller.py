@@ -291,6 +291,7 @@ class ArmController:
         self.contradictions = 0
         self.smoothness_steps = 0
         self.last_report: StepReport | None = None
+        self._protective_held = False  # the last step's report held a protective stop
 
     @property
     def p_base_ee_m(self) -> np.ndarray:
@@ -386,11 +387,11 @@ class ArmController:
             logger.warning("step period %r is not a finite positive number: holding", dt_s)
             return self._hold_report(self._hand_velocity(v) if joint else v, f"period {dt_s!r} s refused: holding")
         values = v.tolist()
-        if not all(math.isfinite(value) for value in values):
+        if not all(map(math.isfinite, values)):
             logger.warning("desired %s %s is not finite: commanding zero", "joint velocity" if joint else "velocity", v)
             v, reason = np.zeros(size), f"desired {'joint ' if joint else ''}velocity not finite: commanding zero"
             values = [0.0]
-        moving = any(value != 0.0 for value in values)
+        moving = any(values)  # (finite floats: non-zero is true)
         if dt_s <= MAX_STEP_S:
             return self._step_once(v, moving, float(dt_s), strategy, reason, joint)
         if dt_s > MAX_PERIOD_S:
@@ -456,7 +457,7 @@ class ArmController:
         ssm_flags = _SSM_FLAGS.get(self.ssm)
         if ssm_flags is None:
             raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
-        held = self.last_report is not None and self.last_report.protective_stop  # a stop under way
+        held = self._protective_held  # a stop under way (the last report's ``protective_stop``)
         flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if held else 0) | (
             FLAG_JOINT_COMMAND if joint else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
@@ -493,6 +494,7 @@ class ArmController:
                 logger.warning("%s (further contradictions this episode are counted, not logged)", reason)
         if smoothness:
             self.smoothness_steps += 1
+        self._protective_held = protective != 0
         if strategy == _ANTICIPATIVE:
             if relaxed:
                 o = self._offsets[7]
