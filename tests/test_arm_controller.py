@@ -416,3 +416,20 @@ def test_a_step_only_the_safety_net_scaled_is_counted_and_given_a_reason(monkeyp
     assert report.safety_over_smoothness and controller.smoothness_steps == 1
     assert report.extras["net_scale"] == 0.5
     assert report.reason == "safety over smoothness: the safety net executed 0.5 of the step to keep a limitation"
+
+
+def test_the_human_buffers_packing_is_ready_before_the_first_person():
+    """``set_human`` packs a person with compiled code (``limitations.human.human_buffer``): a new
+    controller has it compiled (or loaded from the cache) already, so the control thread does not
+    stop to compile when the first person is seen. A fresh process, so no other test has called it."""
+    import subprocess
+    import sys
+
+    code = ("from cobotsafety.arm.controller import ArmController\n"
+            "from cobotsafety.arm.limitations.human import human_buffer\n"
+            "before = len(human_buffer.overloads)\n"
+            "ArmController('panda')\n"
+            "print(before, len(human_buffer.overloads))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, check=True)
+    before, after = map(int, out.stdout.split())
+    assert before == 0 and after >= 1

@@ -211,7 +211,9 @@ class ArmController:
         self._pack = None
         self._names: dict = {}
         self._human = HumanCapsules.absent()
-        self._human_f = np.zeros(0)
+        # (nobody's buffer, packed as a person's is: the compiled packing is compiled or loaded
+        # from the cache here, not in the control thread when the first person is seen)
+        self._human_f = human_buffer(np.zeros((0, 3)), np.zeros((0, 3)), _EMPTY, np.zeros((0, 3)), np.zeros((0, 3)))
         self._human_given_s = -math.inf
         self._human_age_s = 0.0
         self.clock_s = 0.0
