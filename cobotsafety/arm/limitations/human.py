@@ -54,8 +54,9 @@ def row_name(limitation: HumanLimitation, robot, a: int, b: int, human_names: tu
 @numba.njit(cache=True)
 def human_buffer(p0_m, p1_m, radius_m, v0_m_s, v1_m_s):  # pragma: no cover - compiled
     """The flat buffer (13 h,) the compiled step reads: end points (h, 3) [m], radii (h,) [m]
-    and end-point velocities (h, 3) [m/s], in that order (``HUMAN_FLOATS`` per capsule).
-    (Compiled: numpy's concatenation of the five cost a third more, at every human frame.)"""
+    and end-point velocities (h, 3) [m/s], in that order (``HUMAN_FLOATS`` per capsule), each a
+    float64 ``numpy`` array (as ``HumanCapsules`` holds them). (Compiled: numpy's concatenation
+    of the five cost half as much again, at every human frame.)"""
     h = radius_m.shape[0]
     out = np.empty(HUMAN_FLOATS * h)
     for i in range(h):
