@@ -213,7 +213,8 @@ class ArmController:
         self._human = HumanCapsules.absent()
         # (nobody's buffer, packed as a person's is: the compiled packing is compiled or loaded
         # from the cache here, not in the control thread when the first person is seen)
-        self._human_f = human_buffer(np.zeros((0, 3)), np.zeros((0, 3)), _EMPTY, np.zeros((0, 3)), np.zeros((0, 3)))
+        nobody = np.zeros((0, 3))
+        self._human_f = human_buffer(nobody, nobody, _EMPTY, nobody, nobody)
         self._human_given_s = -math.inf
         self._human_age_s = 0.0
         self.clock_s = 0.0
@@ -293,7 +294,6 @@ class ArmController:
         self.contradictions = 0
         self.smoothness_steps = 0
         self.last_report: StepReport | None = None
-        self._protective_held = False  # the last step's report held a protective stop
 
     @property
     def p_base_ee_m(self) -> np.ndarray:
@@ -459,7 +459,7 @@ class ArmController:
         ssm_flags = _SSM_FLAGS.get(self.ssm)
         if ssm_flags is None:
             raise ValueError(f"ssm must be one of {SSM_MODES}, got {self.ssm!r}")
-        held = self._protective_held  # a stop under way (the last report's ``protective_stop``)
+        held = self.last_report is not None and self.last_report.protective_stop  # a stop under way
         flags = ssm_flags | (FLAG_STOP if watchdog_stop else 0) | (FLAG_PROTECTIVE_HELD if held else 0) | (
             FLAG_JOINT_COMMAND if joint else 0)
         ahead = self.clock_s - self._human_given_s if self._human.names else 0.0
@@ -496,7 +496,6 @@ class ArmController:
                 logger.warning("%s (further contradictions this episode are counted, not logged)", reason)
         if smoothness:
             self.smoothness_steps += 1
-        self._protective_held = protective != 0
         if strategy == _ANTICIPATIVE:
             if relaxed:
                 o = self._offsets[7]
