@@ -195,7 +195,7 @@ class ArmController:
         self.watchdog = watchdog
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
         self._offsets = tuple(int(o) for o in output_layout(nq, nv, c, int(self.model.robot_i[0])))
-        self._state_f = np.zeros(nq + 2 * nv + 6)
+        self._state_f = np.zeros(nq + 2 * nv + 3)
         self._reference_f = np.zeros(10)
         self._settings_f = self.settings.vector()
         self._out_size = int(self._offsets[-1])
@@ -251,12 +251,9 @@ class ArmController:
     def set_measured_state(self, q: np.ndarray, qdot_rad_s: np.ndarray, qddot_rad_s2: np.ndarray) -> None:
         """Closed loop: the arm is at ``q`` (nq,) moving at ``qdot_rad_s`` (nv,) with the
         acceleration ``qddot_rad_s2`` (nv,), as measured (or as the robot's own rate limiter let
-        it move, ``rate_limiter``); the next step starts from this state. The hand's velocity
-        and acceleration the next step's motion box starts from are those of this state
-        (pinocchio's classical acceleration). The hold point, the yield, the clock and the
-        counters are kept."""
-        import pinocchio as pin
-
+        it move, ``rate_limiter``); the next step starts from this state (the hand's velocity
+        too: ``J qdot`` at ``q``). The hold point, the yield, the clock and the counters are
+        kept."""
         nq, nv = self.model.nq, self.model.nv
         q = np.array(q, dtype=float).reshape(-1)
         qdot = np.array(qdot_rad_s, dtype=float).reshape(-1)
@@ -266,13 +263,9 @@ class ArmController:
             raise ValueError(f"a measured state is q ({nq}), qdot ({nv}) and qddot ({nv}) finite numbers, got "
                              f"{q}, {qdot}, {qddot}")
         self._set_q(q)
-        model, data, frame = self.model.model, self.model.model.createData(), self.model.ee_frame_id
-        pin.forwardKinematics(model, data, q, qdot, qddot)
-        a_ee = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).linear
         self._state_f[nq:nq + nv] = qdot
         self._state_f[nq + nv:nq + 2 * nv] = qddot
         self._state_f[nq + 2 * nv:nq + 2 * nv + 3] = self.state.J_ee @ qdot
-        self._state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = a_ee
 
     @property
     def joint_velocity_rad_s(self) -> np.ndarray:

@@ -5,7 +5,7 @@ per period; with ``NUMBA_DISABLE_JIT=1`` this source runs as written). Its argum
 buffers grouped by role:
 
 * ``state_f``: ``q`` (nq), the previous step's joint velocity (nv) and acceleration (nv), the
-  end-effector's previous velocity (3) and acceleration (3). Updated in place.
+  end-effector's previous velocity (3). Updated in place.
 * ``kin_f``: the previous step's ``out_f``: its kinematics at its q_next are this step's at
   ``q`` when ``q`` is that q_next (checked bit for bit; else, e.g. an empty array, computed).
 * the command: the desired end-effector velocity ``v`` (3) [m/s] (with ``FLAG_JOINT_COMMAND``:
@@ -709,5 +709,4 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     state_f[nq:nq + nv] = qdot_exec
     state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s
     state_f[nq + 2 * nv:nq + 2 * nv + 3] = v_executed
-    state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = (v_executed - u_prev) / dt_s
     return STATUS_DONE
