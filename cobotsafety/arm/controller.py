@@ -210,13 +210,11 @@ class ArmController:
         self._packed: list = []
         self._pack = None
         self._names: dict = {}
-        self._human = HumanCapsules.absent()
-        # (nobody's buffer, packed as a person's is: the compiled packing is compiled or loaded
-        # from the cache here, not in the control thread when the first person is seen)
+        # A person's compiled packing (``human_buffer``) compiled or loaded from the cache here,
+        # not in the control thread when the first person is seen.
         nobody = np.zeros((0, 3))
-        self._human_f = human_buffer(nobody, nobody, _EMPTY, nobody, nobody)
-        self._human_given_s = -math.inf
-        self._human_age_s = 0.0
+        human_buffer(nobody, nobody, _EMPTY, nobody, nobody)
+        self.set_human(None)  # nobody expected yet
         self.clock_s = 0.0
         """Time stepped since the start [s] (the watchdog's and the yield's clock)."""
         self.reset()
