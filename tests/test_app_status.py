@@ -84,9 +84,9 @@ def test_planar_and_stale_lines():
 
 
 def test_the_watchdogs_word_and_the_acceleration_limit_are_shown():
-    """The controller being careful with an old human model, and a step whose motion the
-    acceleration or jerk limits shaped (issue 20 item 7), each say so on their line; a fresh
-    step says neither."""
+    """The controller being careful with an old human model, a step whose motion the
+    acceleration or jerk limits shaped (issue 20 item 7), and one whose hand went over its own
+    limits, each say so on their line; a fresh step says none."""
     careful = status_lines(facts(report(), human_present=True, distance_m=0.5,
                                  careful="human model 0.12 s old: grown by 0.14 m <b>"))
     assert careful[2] == "Person: <b>human model 0.12 s old: grown by 0.14 m &lt;b&gt;</b>"
@@ -94,6 +94,9 @@ def test_the_watchdogs_word_and_the_acceleration_limit_are_shown():
     assert limited[3].endswith(" · <b>acceleration-limited</b>")
     fresh = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), human_present=True, distance_m=0.5))
     assert "acceleration-limited" not in fresh[3] and fresh[2] == "Person: <b>500 mm</b> from the arm"
+    assert "hand over its limit" not in fresh[3] and "hand over its limit" not in limited[3]
+    over = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=True, hand_over_limit=True))
+    assert over[3].endswith(" · <b>acceleration-limited</b> · <b>hand over its limit</b>")
 
 
 def test_html_block_has_fixed_height_and_fixed_rows_whatever_the_text():

@@ -31,7 +31,7 @@ JSON_KEYS = {"scenario", "recording", "robot", "controller", "ssm", "min_distanc
              "peak_ee_speed_m_s", "completion_time_s", "stopped_time_s", "stop_go_transitions",
              "protective_stop_time_s", "max_ee_accel_m_s2", "max_joint_velocity_ratio", "max_joint_acceleration_ratio",
              "max_joint_jerk_ratio", "max_ee_jerk_m_s3", "max_ee_speed_ratio", "max_ee_acceleration_ratio",
-             "max_ee_jerk_ratio", "safety_over_smoothness_steps", "posture_recoveries"}
+             "max_ee_jerk_ratio", "safety_over_smoothness_steps", "hand_over_limit_steps", "posture_recoveries"}
 
 
 @pytest.mark.parametrize("scenario", ["exp1", "exp2", "reach-over", "exp1-corner", "exp2-corner"])

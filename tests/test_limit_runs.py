@@ -319,14 +319,27 @@ def test_runs_over_a_limit_without_a_counted_step_are_named(monkeypatch, capsys)
             limit_runs.LimitRun("at-limit", "panda", 0.001, ratios(ee=(1.0, 1.0, 1.0), velocity=1.0 + 5e-10), 0,
                                 np.zeros((1, 7))),
             limit_runs.LimitRun("joint", "panda", 0.001, ratios(joint_jerk=1.2), 0, np.zeros((1, 7)))]
-    assert limit_runs.over_summary(runs) == ("runs over a limit without a counted step: 2 of 4 (worst: joint_jerk "
-                                             "1.2 times the limit in joint)")
+    assert limit_runs.over_summary(runs) == ("runs over a limit without a counted or reported step: 2 of 4 (worst: "
+                                             "joint_jerk 1.2 times the limit in joint); over the hand's limits, "
+                                             "reported: 0")
     assert runs[1].as_json()["max_ee_jerk_ratio"] == 1.0  # rounded in the JSON, over the limit all the same
-    assert limit_runs.over_summary(runs[1:2]) == ("runs over a limit without a counted step: 1 of 1 (worst: ee_jerk "
-                                                  "1 times the limit in hand)")
-    assert limit_runs.over_summary(runs[:1] + runs[2:3]) == "runs over a limit without a counted step: 0 of 2"
+    assert limit_runs.over_summary(runs[1:2]) == ("runs over a limit without a counted or reported step: 1 of 1 "
+                                                  "(worst: ee_jerk 1 times the limit in hand); over the hand's "
+                                                  "limits, reported: 0")
+    assert limit_runs.over_summary(runs[:1] + runs[2:3]) == ("runs over a limit without a counted or reported step: "
+                                                             "0 of 2; over the hand's limits, reported: 0")
+    # The hand's excess reported by the step is not silent; a joint's excess beside it still is.
+    reported = limit_runs.LimitRun("hand", "panda", 0.001, ratios(ee=(0.5, 0.9, 1.00004)), 0, np.zeros((1, 7)), 3)
+    assert reported.as_json()["hand_over_limit_steps"] == 3
+    assert limit_runs.over_summary([reported]) == ("runs over a limit without a counted or reported step: 0 of 1; "
+                                                   "over the hand's limits, reported: 1")
+    both = limit_runs.LimitRun("both", "panda", 0.001, ratios(joint_jerk=1.3, ee=(0.5, 1.2, 0.5)), 0,
+                               np.zeros((1, 7)), 2)
+    assert limit_runs.over_summary([both]) == ("runs over a limit without a counted or reported step: 1 of 1 "
+                                               "(worst: joint_jerk 1.3 times the limit in both); over the hand's "
+                                               "limits, reported: 1")
     slower = limit_runs.LimitRun("joint", "panda", 0.002, ratios(joint_jerk=1.1), 0, np.zeros((1, 7)))
-    assert limit_runs.over_summary(runs + [slower]).endswith("1.2 times the limit in joint at 1 ms)")
+    assert "1.2 times the limit in joint at 1 ms);" in limit_runs.over_summary(runs + [slower])
 
     monkeypatch.setattr(limit_runs, "scripted_runs", lambda robot, dt_s, drag_seeds=1: runs)
     assert main(["experiment", "limits", "--robot", "panda", "--no-recordings"]) == 0
@@ -365,6 +378,38 @@ def test_the_iiwas_default_release_keeps_its_hands_acceleration_limit():
     assert run.ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9
 
 
+@pytest.mark.parametrize("robot, dt_s", [("iiwa", 0.001), ("iiwa", 1 / 275), ("panda", 0.001)])
+def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s):
+    """Never silent: the hand's executed path (its positions' backward differences, from rest)
+    over the robot's end-effector acceleration or jerk limit at exactly the steps the step's
+    report says so (``hand_over_limit``), with the same ratios; the controller's count is those
+    steps, and the run's ``hand_over_limit_steps`` too. The iiwa's default drag-release at 1 kHz
+    goes over (the strict xfail above: the path's curvature), so the report is exercised."""
+    from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO, ee_derivatives
+
+    c = ArmController(robot)
+    limits = c.model.limits
+    hands, reports = [c.state.p_world_ee.copy()], []
+    for v in drag_release(c, dt_s):
+        reports.append(c.step(v, dt_s, "anticipative"))
+        hands.append(c.state.p_world_ee.copy())
+    d = ee_derivatives(np.array(hands), dt_s)
+    acceleration = np.linalg.norm(d.acceleration, axis=1) / limits.ee_acceleration_m_s2
+    jerk = np.linalg.norm(d.jerk, axis=1) / limits.ee_jerk_m_s3
+    ratios = np.array([r.hand_limit_ratios for r in reports])
+    np.testing.assert_allclose(ratios[:, 0], acceleration, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(ratios[:, 1], jerk, rtol=1e-12, atol=1e-12)
+    over = (acceleration > OVER_LIMIT_RATIO) | (jerk > OVER_LIMIT_RATIO)
+    said = np.array([r.hand_over_limit for r in reports])
+    assert np.array_equal(said, over)
+    assert c.hand_over_limit_steps == int(over.sum())
+    if robot == "iiwa" and dt_s == 0.001:
+        assert over.sum() > 0
+    c.reset()
+    run = _measure("drag-release", c, drag_release(c, dt_s), dt_s)
+    assert run.hand_over_limit_steps == int(over.sum()) and run.as_json()["hand_over_limit_steps"] == over.sum()
+
+
 def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypatch):
     """``recording_runs`` measures paper 2's recordings on the commanded path their metrics
     measured: every ratio the run reports equals the approach's own (``RunMetrics``), and the
@@ -380,6 +425,7 @@ def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypa
     for key in (*limit_runs.RATIO_KEYS, "max_ee_jerk_m_s3"):
         assert getattr(run.ratios, key) == getattr(metrics, key), key
     assert run.safety_over_smoothness_steps == metrics.safety_over_smoothness_steps
+    assert run.hand_over_limit_steps == metrics.hand_over_limit_steps
     r = run.ratios
     assert r.max_joint_acceleration_at is not None and r.max_ee_acceleration_m_s2 is not None
     assert r.max_joint_acceleration_ratio > 0.5  # the arm moved

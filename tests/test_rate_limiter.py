@@ -89,8 +89,9 @@ def test_a_command_within_the_limits_passes_unchanged(robot, dt, seed):
 @pytest.mark.parametrize("robot", ["panda", "iiwa"])
 def test_a_measured_state_is_where_the_next_step_starts(robot):
     """``set_measured_state``: the kinematics are pinocchio's at ``q``, the velocity and
-    acceleration are the next step's starting state, and the hand's velocity is the derivative
-    of its position along ``q + qdot t`` (central differences)."""
+    acceleration are the next step's starting state, the hand's velocity is the derivative of
+    its position along ``q + qdot t`` and its acceleration the joints' part, ``J qddot`` (central
+    differences)."""
     from cobotsafety.arm.controller import ArmController
 
     arm = ArmController(robot, zones=[], capsules="paper")
@@ -114,10 +115,21 @@ def test_a_measured_state_is_where_the_next_step_starts(robot):
 
     h = 1e-4
     velocity = (hand(h) - hand(-h)) / (2 * h)
+
+    def hand_velocity(q0, v):  # the hand's velocity at q0 moving at v (central differences)
+        d = model.createData()
+        pin.framesForwardKinematics(model, d, pin.integrate(model, q0, v * h))
+        ahead = d.oMf[arm.model.ee_frame_id].translation.copy()
+        pin.framesForwardKinematics(model, d, pin.integrate(model, q0, -v * h))
+        return (ahead - d.oMf[arm.model.ee_frame_id].translation) / (2 * h)
     nq, nv = model.nq, model.nv
-    stored = arm._state_f  # the kernel's state: q, qdot, qddot, the hand's velocity
-    assert stored.shape == (nq + 2 * nv + 3,)
-    np.testing.assert_allclose(stored[nq + 2 * nv:], velocity, atol=1e-7)
+    stored = arm._state_f  # the kernel's state: q, qdot, qddot, the hand's velocity and acceleration
+    assert stored.shape == (nq + 2 * nv + 6,)
+    np.testing.assert_allclose(stored[nq + 2 * nv:nq + 2 * nv + 3], velocity, atol=1e-7)
+    # the hand's acceleration as the joints give it (J qddot: the velocity's change along qddot,
+    # central differences; the path's curvature left out, as the docstring says)
+    qdot_of = lambda t: hand_velocity(q, qdot + qddot * t)  # noqa: E731
+    np.testing.assert_allclose(stored[nq + 2 * nv + 3:], (qdot_of(h) - qdot_of(-h)) / (2 * h), atol=1e-6)
     report = arm.step(np.zeros(3), 1e-3, "off")  # a step from it: braking from qdot, within the limits
     assert math.isfinite(report.min_distance_m or 0.0)
     moved = arm.model.difference(q, arm.state.q) / 1e-3

@@ -620,7 +620,8 @@ class DemoApp:
             stale_reason=human.reason if human is not None and human.stale else "",
             replay_playing=self.replay.playing, replay_state=replay_state,
             careful=getattr(report, "human_status", "") or "",
-            motion_limited=bool(getattr(report, "motion_limited", ())), failure=self.loop.failure or "")
+            motion_limited=bool(getattr(report, "motion_limited", ())),
+            hand_over_limit=bool(getattr(report, "hand_over_limit", False)), failure=self.loop.failure or "")
 
     def render_once(self, wall_dt_s: float = 0.0) -> None:
         self.frames += 1

@@ -54,6 +54,9 @@ class StatusFacts:
     """The controller's word on old or missing human data ("" when fresh): slower, then stopped."""
     motion_limited: bool = False
     """The robot's joint acceleration or jerk limits shaped this step's motion."""
+    hand_over_limit: bool = False
+    """The hand's executed path went over the robot's end-effector acceleration or jerk limit this
+    step (its curvature: ``ArmStepReport.hand_over_limit``)."""
     failure: str = ""
     """Why the control loop stopped ("" while it runs)."""
 
@@ -129,6 +132,7 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
     monitoring = "" if facts.ssm is None else f" · SSM <b>{'on' if facts.ssm else 'off'}</b>"
     rate = round(facts.rate_hz / RATE_STEP_HZ) * RATE_STEP_HZ  # the block is re-sent only when it changes
     smooth = " · <b>acceleration-limited</b>" if facts.motion_limited else ""
+    smooth += " · <b>hand over its limit</b>" if facts.hand_over_limit else ""
     mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{rate:.0f} Hz</b>{smooth}"
     x, y, z = (float(c) * 1e3 for c in facts.p_base_ee_m)
     where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm"

@@ -195,7 +195,7 @@ class ArmController:
         self.watchdog = watchdog
         nq, nv, c = self.model.nq, self.model.nv, len(self.model.capsules)
         self._offsets = tuple(int(o) for o in output_layout(nq, nv, c, int(self.model.robot_i[0])))
-        self._state_f = np.zeros(nq + 2 * nv + 3)
+        self._state_f = np.zeros(nq + 2 * nv + 6)
         self._reference_f = np.zeros(10)
         self._settings_f = self.settings.vector()
         self._out_size = int(self._offsets[-1])
@@ -250,8 +250,9 @@ class ArmController:
         """Closed loop: the arm is at ``q`` (nq,) moving at ``qdot_rad_s`` (nv,) with the
         acceleration ``qddot_rad_s2`` (nv,), as measured (or as the robot's own rate limiter let
         it move, ``rate_limiter``); the next step starts from this state (the hand's velocity
-        too: ``J qdot`` at ``q``). The hold point, the yield, the clock and the counters are
-        kept."""
+        too: ``J qdot`` at ``q``, and its acceleration ``J qddot``, which leaves out the path's
+        curvature: the next step's report of the hand's jerk is that much approximate). The hold
+        point, the yield, the clock and the counters are kept."""
         nq, nv = self.model.nq, self.model.nv
         q = np.array(q, dtype=float).reshape(-1)
         qdot = np.array(qdot_rad_s, dtype=float).reshape(-1)
@@ -263,7 +264,9 @@ class ArmController:
         self._set_q(q)
         self._state_f[nq:nq + nv] = qdot
         self._state_f[nq + nv:nq + 2 * nv] = qddot
-        self._state_f[nq + 2 * nv:nq + 2 * nv + 3] = self.state.J_ee @ qdot
+        J = self.state.J_ee
+        self._state_f[nq + 2 * nv:nq + 2 * nv + 3] = J @ qdot
+        self._state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = J @ qddot
 
     @property
     def joint_velocity_rad_s(self) -> np.ndarray:
@@ -284,6 +287,9 @@ class ArmController:
         self.yield_until_s = -math.inf
         self.contradictions = 0
         self.smoothness_steps = 0
+        self.hand_over_limit_steps = 0
+        """Steps whose executed hand path went over the robot's end-effector acceleration or jerk
+        limit (``ArmStepReport.hand_over_limit``), this episode."""
         self.last_report: StepReport | None = None
 
     @property
@@ -465,7 +471,7 @@ class ArmController:
             raise CobotSafetyError(f"the compiled step refused the scene (status {status})")
         self.clock_s += dt_s
         self.state.refresh(out_f, self._offsets)
-        _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _ = out_i[:10].tolist()
+        _, level, stopped, _, relaxed_rows, worst, _, smoothness, protective, _, _, hand_over = out_i[:12].tolist()
         stopped = stopped != 0
         relaxed = level in (LEVEL_RELAXED, LEVEL_APPROACH_NOTHING) and relaxed_rows > 0
         if level > LEVEL_SMOOTHNESS:
@@ -487,6 +493,8 @@ class ArmController:
                 logger.warning("%s (further contradictions this episode are counted, not logged)", reason)
         if smoothness:
             self.smoothness_steps += 1
+        if hand_over:
+            self.hand_over_limit_steps += 1
         if strategy == _ANTICIPATIVE:
             if relaxed:
                 o = self._offsets[7]

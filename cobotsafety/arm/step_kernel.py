@@ -5,7 +5,8 @@ per period; with ``NUMBA_DISABLE_JIT=1`` this source runs as written). Its argum
 buffers grouped by role:
 
 * ``state_f``: ``q`` (nq), the previous step's joint velocity (nv) and acceleration (nv), the
-  end-effector's previous velocity (3). Updated in place.
+  end-effector's previous velocity (3) and acceleration (3), as executed (its path's backward
+  differences). Updated in place.
 * ``kin_f``: the previous step's ``out_f``: its kinematics at its q_next are this step's at
   ``q`` when ``q`` is that q_next (checked bit for bit; else, e.g. an empty array, computed).
 * the command: the desired end-effector velocity ``v`` (3) [m/s] (with ``FLAG_JOINT_COMMAND``:
@@ -64,6 +65,7 @@ from cobotsafety.arm.limitations import joint_range
 from cobotsafety.arm.limitations.rows import kind_count, kind_distances, kind_rows
 from cobotsafety.arm.motion_box import (EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN, ROUNDING_RAD_S, motion_box,
                                         ramp_acceleration, within_hand_ball)
+from cobotsafety.arm.motion_limits import OVER_LIMIT_RATIO
 from cobotsafety.arm.potential_field import field_push, field_velocity, limit_scale, weighted_least_norm
 from cobotsafety.arm.ssm import approach_speed_kernel, separation_kernel
 from cobotsafety.arm.task import null_basis, task_mapping
@@ -77,15 +79,21 @@ STRATEGIES = ("anticipative", "stop", "reactive", "off")
 FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FLAG_JOINT_COMMAND = 1, 2, 4, 8, 16, 32
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
-#: anticipative command carried the repulsion from a person); then the binding rows' codes, then
-#: the motion-limited rows' codes.
+#: anticipative command carried the repulsion from a person), the hand's executed path over its
+#: limits (``HAND_OVER_*`` bits); then the binding rows' codes, then the motion-limited rows' codes.
 (I_STATUS, I_LEVEL, I_STOPPED, I_BINDING, I_RELAXED, I_WORST, I_MOTION_LIMITED, I_SMOOTHNESS, I_PROTECTIVE,
- I_MOTION_COUNT, I_EVADING) = range(11)
+ I_MOTION_COUNT, I_EVADING, I_HAND_OVER) = range(12)
 OUT_I_HEADER = 16
 #: ``out_i[I_SMOOTHNESS]``, smoothness given up for safety (0: not): the joints' motion limits
 #: gave way (the hand's may too); only the hand's (the joints' kept); the safety net scaled the
 #: step (the filter's command kept every row).
 GAVE_WAY_JOINTS, GAVE_WAY_HAND, GAVE_WAY_NET = 1, 2, 3
+#: ``out_i[I_HAND_OVER]`` bits: the end-effector's executed path (the backward differences of its
+#: positions, as ``motion_ratios`` measures a run) went over the robot's end-effector
+#: acceleration limit, its jerk limit, this step (by more than ``OVER_LIMIT_RATIO``). The filter
+#: bounds the hand's acceleration on ``J qddot``; the path's curvature ``dJ/dt qdot`` has the
+#: tenth of the limit left for it, which a body turning fast in the hand's null space can exceed.
+HAND_OVER_ACCELERATION, HAND_OVER_JERK = 1, 2
 STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: Row codes: ``(owner + 4) << 20 | a << 10 | b``; owner >= 0 a limitation (its index), else
 #: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
@@ -109,9 +117,11 @@ def output_layout(nq, nv, n_caps, nj):  # pragma: no cover - compiled
     v_executed, min_distance, p_robot, p_human, net_scale, worst_violation, motion_violation,
     brake_factor (the largest factor by which a bound exceeded the motion limits), the step's
     joint acceleration ratio (max over joints of |qddot| / limit), the joints' rotations oR
-    (nj, 3, 3) and positions op (nj, 3) at q_next, and the total size. The kinematics at q_next
-    (p_ee to cap_p1, oR, op) are the next step's at its q (``previous_kinematics``)."""
-    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1, 9 * nj, 3 * nj)
+    (nj, 3, 3) and positions op (nj, 3) at q_next, the executed hand path's acceleration and jerk
+    over the robot's end-effector limits (norms; ``HAND_OVER_*``), and the total size. The
+    kinematics at q_next (p_ee to cap_p1, oR, op) are the next step's at its q
+    (``previous_kinematics``)."""
+    sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1, 9 * nj, 3 * nj, 2)
     offsets = np.zeros(len(sizes) + 1, dtype=np.int64)
     for i in range(len(sizes)):
         offsets[i + 1] = offsets[i] + sizes[i]
@@ -298,6 +308,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     qdot_prev = state_f[nq:nq + nv].copy()
     qddot_prev = state_f[nq + nv:nq + 2 * nv].copy()
     u_prev = state_f[nq + 2 * nv:nq + 2 * nv + 3].copy()
+    a_hand_prev = state_f[nq + 2 * nv + 3:nq + 2 * nv + 6].copy()
     v = v_desired.copy()
     R_ref = reference_f[0:9].reshape((3, 3))
     speed_cap = min(reference_f[9], max_speed, ee_limits[0])
@@ -705,8 +716,18 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     out_f[offsets[16]] = acceleration_ratio
     out_f[offsets[17]:offsets[18]] = oR2.ravel()
     out_f[offsets[18]:offsets[19]] = op2.ravel()
+    # The hand's executed path against its own limits (what the box on ``J qddot`` cannot see):
+    # reported, never silent.
+    a_hand = (v_executed - u_prev) / dt_s
+    hand_acceleration_ratio = np.sqrt(np.sum(a_hand ** 2)) / ee_acc
+    hand_jerk_ratio = np.sqrt(np.sum(((a_hand - a_hand_prev) / dt_s) ** 2)) / ee_jerk
+    out_f[offsets[19]] = hand_acceleration_ratio
+    out_f[offsets[19] + 1] = hand_jerk_ratio
+    out_i[I_HAND_OVER] = (HAND_OVER_ACCELERATION if hand_acceleration_ratio > OVER_LIMIT_RATIO else 0) | (
+        HAND_OVER_JERK if hand_jerk_ratio > OVER_LIMIT_RATIO else 0)
     state_f[0:nq] = q_next
     state_f[nq:nq + nv] = qdot_exec
     state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s
     state_f[nq + 2 * nv:nq + 2 * nv + 3] = v_executed
+    state_f[nq + 2 * nv + 3:nq + 2 * nv + 6] = a_hand
     return STATUS_DONE

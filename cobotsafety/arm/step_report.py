@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from cobotsafety.arm.step_kernel import I_BINDING, I_EVADING, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER, decode_row
+from cobotsafety.arm.step_kernel import (I_BINDING, I_EVADING, I_HAND_OVER, I_MOTION_COUNT, I_PROTECTIVE, OUT_I_HEADER,
+                                         decode_row)
 
 
 class ArmStepReport:
@@ -32,6 +33,22 @@ class ArmStepReport:
         """The anticipative command carried paper 2's repulsion from a person this step
         (``FilterSettings.evasion_gain``): the arm was moving out of their way."""
         return bool(self._out_i[I_EVADING])
+
+    @property
+    def hand_over_limit(self) -> bool:
+        """The end-effector's executed path (its positions' backward differences, as
+        ``experiments.motion_ratios`` measures a run) went over the robot's end-effector
+        acceleration or jerk limit this step: the filter bounds ``J qddot``, and the path's
+        curvature (a body turning fast in the hand's null space) took more than the tenth of the
+        limit left for it. Reported, not prevented (``hand_limit_ratios``)."""
+        return bool(self._out_i[I_HAND_OVER])
+
+    @property
+    def hand_limit_ratios(self) -> tuple[float, float]:
+        """The end-effector's executed acceleration and jerk this step, each norm over the
+        robot's end-effector limit (1 = the limit)."""
+        o = self._o[19]
+        return float(self._out_f[o]), float(self._out_f[o + 1])
 
     def __init__(self, out_f, out_i, offsets, name, v_desired_m_s, stopped, reason, contradictions, smoothness,
                  smoothness_steps, human_status, previous_f):

@@ -20,7 +20,9 @@ commanded joint positions from rest, ``experiments.motion_ratios``), ``max_ee_je
 ``max_ee_speed_ratio``, ``max_ee_acceleration_ratio``, ``max_ee_jerk_ratio`` (the same differences of
 the commanded hand path, their norms over the robot's end-effector limits),
 ``safety_over_smoothness_steps`` (steps where a limitation was kept over the robot's
-acceleration or jerk limits, counted by the controller). Task: ``completion_time_s``;
+acceleration or jerk limits, counted by the controller), ``hand_over_limit_steps`` (steps whose
+executed hand path went over the robot's end-effector acceleration or jerk limit, reported by the
+controller: the path's curvature, not a limitation kept). Task: ``completion_time_s``;
 ``stopped_time_s``, time held although the task wanted motion (the controller said stopped, or
 the attraction asked for more than ``MOVING_M_S`` while the end-effector moved slower than
 ``STOPPED_M_S``); ``stop_go_transitions``, changes of that flag; ``protective_stop_time_s``,
@@ -81,6 +83,7 @@ class RunMetrics:
     max_ee_acceleration_ratio: float | None
     max_ee_jerk_ratio: float | None
     safety_over_smoothness_steps: int
+    hand_over_limit_steps: int = 0
 
     def as_dict(self, digits: int = 4) -> dict:
         return {k: (round(v, digits) if isinstance(v, float) and np.isfinite(v) else
@@ -89,12 +92,13 @@ class RunMetrics:
 
 def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_executed_m_s, v_desired_m_s,
                 stopped, protective, ratios, completion_time_s: float | None,
-                safety_over_smoothness_steps: int = 0) -> RunMetrics:
+                safety_over_smoothness_steps: int = 0, hand_over_limit_steps: int = 0) -> RunMetrics:
     """Metrics from per-step arrays (n,) [m] (NaN where a quantity does not apply, inf where
     nobody is there), executed and desired end-effector velocities (n, 3) [m/s], the
     controller's stopped flags and SSM's protective stops (n,), the run's ``MotionRatios``
     (``experiments.motion_ratios``: the commanded joint path against the robot's limits) and
-    the steps where safety was kept over the acceleration or jerk limits."""
+    the steps where safety was kept over the acceleration or jerk limits, and those the controller
+    reported over the hand's own limits."""
     v = np.asarray(v_executed_m_s, float).reshape(-1, 3)
     speed = np.linalg.norm(v, axis=1)
     wanted = np.linalg.norm(np.asarray(v_desired_m_s, float).reshape(-1, 3), axis=1)
@@ -113,4 +117,5 @@ def run_metrics(dt_s: float, t_s, seen_m, estimate_m, one_capsule_m, true_m, v_e
                       float(np.sum(protective) * dt_s), float(accel.max()) if accel.size else 0.0,
                       ratios.max_joint_velocity_ratio, ratios.max_joint_acceleration_ratio,
                       ratios.max_joint_jerk_ratio, ratios.max_ee_jerk_m_s3, ratios.max_ee_speed_ratio,
-                      ratios.max_ee_acceleration_ratio, ratios.max_ee_jerk_ratio, int(safety_over_smoothness_steps))
+                      ratios.max_ee_acceleration_ratio, ratios.max_ee_jerk_ratio, int(safety_over_smoothness_steps),
+                      int(hand_over_limit_steps))

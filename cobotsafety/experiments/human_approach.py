@@ -197,7 +197,7 @@ def episode_metrics(log: EpisodeLog, dt_s: float, controller, ratios=None) -> Ru
     ratios = episode_ratios(log, dt_s, controller) if ratios is None else ratios
     return run_metrics(dt_s, log.t_s, log.seen_m, log.estimate_m, log.one_capsule_m, log.true_m, log.v_ee_m_s,
                        log.v_att_m_s, log.stopped, log.protective, ratios, log.completion_s,
-                       controller.arm.smoothness_steps)
+                       controller.arm.smoothness_steps, controller.arm.hand_over_limit_steps)
 
 
 @dataclass

@@ -20,10 +20,12 @@ differences from rest, against ``assets/limits/robot_limits.toml``):
 Each run prints ``run``, ``robot``, ``dt_s``, ``max_joint_velocity_ratio``,
 ``max_joint_acceleration_ratio``, ``max_joint_jerk_ratio``, ``max_ee_jerk_m_s3``,
 ``max_ee_speed_ratio``, ``max_ee_acceleration_ratio``, ``max_ee_jerk_ratio`` (the hand's norms
-over the robot's end-effector limits) and ``safety_over_smoothness_steps`` (steps the controller
-kept a limitation over the acceleration or jerk limits; each counted, never silent). The table
-ends with the runs that went over a limit (any ratio above 1) without a counted step: what the
-controller did not know it did. ``--out DIR`` plots the first run's joint velocity and
+over the robot's end-effector limits), ``safety_over_smoothness_steps`` (steps the controller
+kept a limitation over the acceleration or jerk limits; each counted, never silent) and
+``hand_over_limit_steps`` (steps whose executed hand path went over the robot's end-effector
+acceleration or jerk limit, each reported by the step: ``ArmStepReport.hand_over_limit``). The
+table ends with the runs that went over a limit (any ratio above 1) without a step counted or
+reported for it: what the controller did not know it did. ``--out DIR`` plots the first run's joint velocity and
 acceleration against their limits.
 
 ``--periods N`` runs them all at N control periods spread evenly over ``--dt`` times ``1 +-
@@ -52,7 +54,7 @@ from cobotsafety.experiments.motion_ratios import JSON_KEYS
 
 #: A run's ratios to the robot's limits (joints' and hand's); the table's columns and JSON keys.
 RATIO_KEYS = tuple(key for key in JSON_KEYS if key.endswith("_ratio"))
-KEYS = (*JSON_KEYS, "safety_over_smoothness_steps")
+KEYS = (*JSON_KEYS, "safety_over_smoothness_steps", "hand_over_limit_steps")
 RECORDINGS = ("exp1", "exp2", "reach-over")
 #: The stress case: a person reaching over the table faster than the arm can brake.
 STRESS_RUN = "reach-over"
@@ -70,6 +72,8 @@ class LimitRun:
     safety_over_smoothness_steps: int
     q_path: np.ndarray
     """(T, nq) [rad], the commanded joint path (for the plots)."""
+    hand_over_limit_steps: int = 0
+    """Steps the controller reported over the hand's own limits (``ArmStepReport.hand_over_limit``)."""
 
     def as_json(self) -> dict:
         r = self.ratios
@@ -77,6 +81,7 @@ class LimitRun:
         values = r.as_json()
         out.update({k: (None if v is None else round(float(v), 4)) for k, v in values.items()})
         out["safety_over_smoothness_steps"] = int(self.safety_over_smoothness_steps)
+        out["hand_over_limit_steps"] = int(self.hand_over_limit_steps)
         return out
 
 
@@ -86,14 +91,15 @@ def _measure(name: str, controller, commands, dt_s: float) -> LimitRun:
 
     state = controller.state
     qs, ps = [state.q.copy()], [state.p_world_ee.copy()]
-    steps_before = controller.smoothness_steps
+    steps_before, hand_before = controller.smoothness_steps, controller.hand_over_limit_steps
     for v in commands:
         controller.step(v, dt_s, "anticipative")
         qs.append(state.q.copy())
         ps.append(state.p_world_ee.copy())
     q_path = np.array(qs)
     ratios = motion_ratios(q_path, dt_s, controller.model.limits, controller.model.difference, np.array(ps))
-    return LimitRun(name, controller.model.name, dt_s, ratios, controller.smoothness_steps - steps_before, q_path)
+    return LimitRun(name, controller.model.name, dt_s, ratios, controller.smoothness_steps - steps_before, q_path,
+                    controller.hand_over_limit_steps - hand_before)
 
 
 def _steps(duration_s: float, dt_s: float) -> int:
@@ -221,7 +227,7 @@ def recording_runs(robot: str, dt_s: float) -> list[LimitRun]:
     for scenario in RECORDINGS:
         run = run_approach("anticipative", scenario=scenario, robot=robot, dt_s=dt_s, loaded=load_scenario(scenario))
         runs.append(LimitRun(scenario, robot, dt_s, run.ratios, run.metrics.safety_over_smoothness_steps,
-                             run.log.commanded_path()[0]))
+                             run.log.commanded_path()[0], run.metrics.hand_over_limit_steps))
     return runs
 
 
@@ -264,23 +270,29 @@ def drag_summary(rows: list[dict]) -> str:
 
 def over_summary(runs: list[LimitRun]) -> str:
     """One line: how many runs went over a limit (a ratio above ``OVER_LIMIT_RATIO``, before the
-    JSON's rounding) without a step the controller counted, and the worst such ratio with its run."""
+    JSON's rounding) without a step the controller counted (a joint's or the hand's limit given
+    way for safety) or reported (the hand's executed path over its own limits), and the worst such
+    ratio with its run; then how many runs went over the hand's limits with each such step
+    reported."""
     from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO
 
-    silent = []
+    silent, reported = [], 0
     for run in runs:
         if run.safety_over_smoothness_steps:
             continue
         ratios = run.ratios.as_json()
         over = [(ratios[key], key) for key in RATIO_KEYS if ratios[key] is not None and ratios[key] > OVER_LIMIT_RATIO]
+        if run.hand_over_limit_steps and over:
+            reported += 1
+            over = [(value, key) for value, key in over if not key.startswith("max_ee_")]
         if over:
             silent.append((*max(over), run.run, run.dt_s))
-    line = f"runs over a limit without a counted step: {len(silent)} of {len(runs)}"
+    line = f"runs over a limit without a counted or reported step: {len(silent)} of {len(runs)}"
     if silent:
         value, key, name, dt_s = max(silent)
         line += f" (worst: {key.replace('max_', '').replace('_ratio', '')} {value:.4g} times the limit in {name}"
         line += f" at {dt_s * 1e3:.6g} ms)" if len({run.dt_s for run in runs}) > 1 else ")"
-    return line
+    return line + f"; over the hand's limits, reported: {reported}"
 
 
 def plot(run: LimitRun, controller_limits, out: Path) -> Path:

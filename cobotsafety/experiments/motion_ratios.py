@@ -35,11 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cobotsafety.arm.motion_limits import OVER_LIMIT_RATIO as OVER_LIMIT_RATIO  # (re-exported: runs' judge)
 from cobotsafety.arm.motion_limits import MotionLimits
-
-#: A ratio above this counts a step as over its limit: position rounding (float64, |q| < 10 rad)
-#: differenced twice at dt >= 1e-4 s stays orders of magnitude below 1e-9 of any limit here.
-OVER_LIMIT_RATIO = 1.0 + 1e-9
 
 
 @dataclass(frozen=True, eq=False)
