@@ -646,6 +646,21 @@ def test_a_person_faster_than_the_arm_meets_an_arm_within_its_hands_limits():
     assert ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9 or any(r.safety_over_smoothness for r in reports)
 
 
+def test_the_walkers_hand_over_its_limits_is_reported_at_every_such_step():
+    """Never silent (issue 20 item 4): where the fleeing iiwa's hand goes over its own limits
+    (the strict xfail above), every such step says so (``hand_over_limit``), and no other."""
+    from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO, ee_derivatives
+
+    controller, reports, _, _, _, p_path = _walker_at_the_iiwa()
+    limits = controller.model.limits
+    d = ee_derivatives(p_path, DT)
+    over = (np.linalg.norm(d.acceleration, axis=1) > limits.ee_acceleration_m_s2 * OVER_LIMIT_RATIO) | (
+        np.linalg.norm(d.jerk, axis=1) > limits.ee_jerk_m_s3 * OVER_LIMIT_RATIO)
+    assert over.sum() > 10  # the swing's curvature (docs/motion_limits.md)
+    assert [r.hand_over_limit for r in reports] == over.tolist()
+    assert controller.hand_over_limit_steps == over.sum()
+
+
 JOINTS_GAVE_WAY = "safety over smoothness: the joints' motion limits gave way"
 HAND_GAVE_WAY = "safety over smoothness: the hand's motion limits gave way (the joints' kept)"
 
