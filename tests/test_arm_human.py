@@ -634,7 +634,7 @@ def test_a_person_faster_than_the_arm_meets_an_arm_at_rest_within_its_motion_lim
     "the hand's box bounds J qddot; fleeing the walker the iiwa swings about its base at ~0.8 m/s "
     "(joint a1 at its speed limit, the extended reach binding), a centripetal ~0.9 m/s^2 the box "
     "does not see: the executed hand acceleration reaches 1.96 times the 2 m/s^2 in 128 steps, none "
-    "counted (docs/motion_limits.md, 'Where the hand's silent excess comes from')"))
+    "counted, each reported (the test below; docs/motion_limits.md, 'Where the hand's silent excess comes from')"))
 def test_a_person_faster_than_the_arm_meets_an_arm_within_its_hands_limits():
     """The same walker: the executed hand path (its positions' differences, as ``experiment
     limits`` measures it) keeps the iiwa's end-effector acceleration limit, or the steps that

@@ -369,7 +369,7 @@ def test_a_runs_hand_ratios_are_its_norms_over_the_robots_hand_limits():
 @pytest.mark.xfail(strict=True, reason="the hand's acceleration is bounded on J qddot (the box, 0.9 of the norm); "
                                        "the curvature's share (dJ/dt qdot) is not: the iiwa's default drag-release "
                                        "at 1 kHz reaches 1.04 times its 2 m/s^2 without a counted step "
-                                       "(docs/motion_limits.md)")
+                                       "(each such step reported: the test below; docs/motion_limits.md)")
 def test_the_iiwas_default_release_keeps_its_hands_acceleration_limit():
     c = ArmController("iiwa")
     run = _measure("drag-release", c, drag_release(c, 0.001), 0.001)
