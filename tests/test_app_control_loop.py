@@ -2,6 +2,7 @@
 
 import threading
 import time
+import types
 
 import numpy as np
 import pytest
@@ -261,3 +262,29 @@ def test_the_loop_catches_up_after_a_stall_on_a_simulated_clock():
     assert summary["rate_hz"] == pytest.approx(1000.0, rel=0.01)
     assert summary["max_ms"] == pytest.approx(6.0)  # the stall shows in the periods
     assert loop.snapshot().t_s == pytest.approx(1.0)
+
+
+class HandOverRobot(SlowRobot):
+    """A robot whose hand goes over its own limits at step 10 only (``hand_over_limit``)."""
+
+    def step(self, v, dt_s, method="anticipative"):
+        self.dts.append(dt_s)
+        return types.SimpleNamespace(hand_over_limit=len(self.dts) == 10)
+
+
+def test_a_hand_over_its_limits_stays_in_the_snapshot_for_a_second():
+    """The excess lasts tens of steps; the status block refreshes every few frames: the snapshot
+    says so from that step until ``HAND_OVER_SHOWN_S`` of the loop's time later, then not."""
+    from cobotsafety.app.control_loop import HAND_OVER_SHOWN_S
+
+    loop = ControlLoop(HandOverRobot())
+    dt = loop.settings.dt_s
+    seen = []
+    for _ in range(9 + int(round(HAND_OVER_SHOWN_S / dt)) + 5):
+        loop.step_once()
+        seen.append(loop.snapshot().hand_over_limit)
+    assert not any(seen[:9]) and seen[9]
+    shown = int(np.argmin(seen[9:]))  # steps it stayed shown, from the step over
+    assert abs(shown - (HAND_OVER_SHOWN_S / dt + 1)) <= 1 and not any(seen[9 + shown:])  # (the clock's rounding)
+    loop.reset()
+    assert not loop.snapshot().hand_over_limit

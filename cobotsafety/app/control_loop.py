@@ -117,6 +117,11 @@ class LoopStats:
                 "late_p99_ms": late_p99 * 1e3, "overruns": float(self.overruns)}
 
 
+HAND_OVER_SHOWN_S = 1.0
+"""How long after the last step over the hand's own limits the snapshot still says so [s] (the
+status block refreshes every few frames; an excess lasts tens of steps)."""
+
+
 @dataclass(frozen=True)
 class LoopSnapshot:
     """What the loop did last, for rendering and plots."""
@@ -136,6 +141,10 @@ class LoopSnapshot:
     ``ControlLoop.stats.summary()``)."""
     human: HumanCapsules | None = None
     """The human frame the controller was given last (None: no human source)."""
+    hand_over_limit: bool = False
+    """A step within the last ``HAND_OVER_SHOWN_S`` went over the hand's own limits
+    (``ArmStepReport.hand_over_limit``: tens of milliseconds at a time, held so that a status
+    refresh sees it)."""
 
 
 class ControlLoop:
@@ -179,6 +188,7 @@ class ControlLoop:
         self._t_s = 0.0
         self._steps = 0
         self._report: StepReport | None = None
+        self._hand_over_until_s = -1.0
         self._human: HumanCapsules | None = None
         self._human_due_s = 0.0
 
@@ -314,6 +324,8 @@ class ControlLoop:
             report = self._robot.step(v, dt_s, self._method)
             self._v_sent = v
             self._report = report
+            if getattr(report, "hand_over_limit", False):
+                self._hand_over_until_s = self._t_s + dt_s + HAND_OVER_SHOWN_S
             self._t_s += dt_s
             self._steps += 1
             return report
@@ -322,7 +334,8 @@ class ControlLoop:
         with self.lock:
             return LoopSnapshot(self._t_s, self._steps, self._method, self._report,
                                 np.array(self._robot.p_base_ee_m, dtype=float), np.array(self._v_sent, dtype=float),
-                                self._gizmo_target_m is not None, {"rate_hz": self.stats.rate_hz}, self._human)
+                                self._gizmo_target_m is not None, {"rate_hz": self.stats.rate_hz}, self._human,
+                                self._t_s <= self._hand_over_until_s)
 
     # ---- thread ------------------------------------------------------------------------
     def start(self) -> None:

@@ -621,7 +621,7 @@ class DemoApp:
             replay_playing=self.replay.playing, replay_state=replay_state,
             careful=getattr(report, "human_status", "") or "",
             motion_limited=bool(getattr(report, "motion_limited", ())),
-            hand_over_limit=bool(getattr(report, "hand_over_limit", False)), failure=self.loop.failure or "")
+            hand_over_limit=snapshot.hand_over_limit, failure=self.loop.failure or "")
 
     def render_once(self, wall_dt_s: float = 0.0) -> None:
         self.frames += 1

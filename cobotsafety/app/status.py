@@ -55,8 +55,9 @@ class StatusFacts:
     motion_limited: bool = False
     """The robot's joint acceleration or jerk limits shaped this step's motion."""
     hand_over_limit: bool = False
-    """The hand's executed path went over the robot's end-effector acceleration or jerk limit this
-    step (its curvature: ``ArmStepReport.hand_over_limit``)."""
+    """The hand's executed path went over the robot's end-effector acceleration or jerk limit
+    (its curvature: ``ArmStepReport.hand_over_limit``) within the last second
+    (``control_loop.HAND_OVER_SHOWN_S``)."""
     failure: str = ""
     """Why the control loop stopped ("" while it runs)."""
 
