@@ -31,12 +31,12 @@ TABLE_FORMAT = "cobotsafety-motion-limits"
 TABLE_VERSION = 1
 JOINT_FIELDS = ("velocity_rad_s", "acceleration_rad_s2", "jerk_rad_s3")
 EE_FIELDS = ("ee_speed_m_s", "ee_acceleration_m_s2", "ee_jerk_m_s3")
-#: Source keys of a robot section: the section's own, then one per value group.
 #: A ratio of a value to its limit above this counts as over the limit (the step's report of the
 #: hand's executed path, ``experiments.motion_ratios`` over a run): position rounding (float64,
 #: |q| < 10 rad) differenced twice at dt >= 1e-4 s stays orders of magnitude below 1e-9 of any
 #: limit here.
 OVER_LIMIT_RATIO = 1.0 + 1e-9
+#: Source keys of a robot section: the section's own, then one per value group.
 SOURCE_KEYS = ("source", "velocity_source", "acceleration_source", "jerk_source",
                "ee_speed_source", "ee_acceleration_source", "ee_jerk_source")
 

@@ -25,8 +25,8 @@ kept a limitation over the acceleration or jerk limits; each counted, never sile
 ``hand_over_limit_steps`` (steps whose executed hand path went over the robot's end-effector
 acceleration or jerk limit, each reported by the step: ``ArmStepReport.hand_over_limit``). The
 table ends with the runs that went over a limit (any ratio above 1) without a step counted or
-reported for it: what the controller did not know it did. ``--out DIR`` plots the first run's joint velocity and
-acceleration against their limits.
+reported for it: what the controller did not know it did. ``--out DIR`` plots the first run's
+joint velocity and acceleration against their limits.
 
 ``--periods N`` runs them all at N control periods spread evenly over ``--dt`` times ``1 +-
 --spread`` (default 1 %; odd N: ``--dt`` itself in the middle) and ends the table with how many
