@@ -94,9 +94,10 @@ def test_the_watchdogs_word_and_the_acceleration_limit_are_shown():
     assert limited[3].endswith(" · <b>acceleration-limited</b>")
     fresh = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), human_present=True, distance_m=0.5))
     assert "acceleration-limited" not in fresh[3] and fresh[2] == "Person: <b>500 mm</b> from the arm"
-    assert "hand over its limit" not in fresh[3] and "hand over its limit" not in limited[3]
+    assert "hand over its limit" not in "".join(fresh) and "hand over its limit" not in "".join(limited)
     over = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=True, hand_over_limit=True))
-    assert over[3].endswith(" · <b>acceleration-limited</b> · <b>hand over its limit</b>")
+    assert over[3].endswith(" · <b>acceleration-limited</b>")  # the mode line as before
+    assert over[4] == "EE x=483.1 y=-0.4 z=413.2 mm · <b>hand over its limit</b>"  # the hand's own line
 
 
 def test_html_block_has_fixed_height_and_fixed_rows_whatever_the_text():

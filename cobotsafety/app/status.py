@@ -133,10 +133,11 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
     monitoring = "" if facts.ssm is None else f" · SSM <b>{'on' if facts.ssm else 'off'}</b>"
     rate = round(facts.rate_hz / RATE_STEP_HZ) * RATE_STEP_HZ  # the block is re-sent only when it changes
     smooth = " · <b>acceleration-limited</b>" if facts.motion_limited else ""
-    smooth += " · <b>hand over its limit</b>" if facts.hand_over_limit else ""
     mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{rate:.0f} Hz</b>{smooth}"
     x, y, z = (float(c) * 1e3 for c in facts.p_base_ee_m)
-    where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm"
+    # (on the hand's own line: the mode line is already full, its end cut at the panel's width)
+    over = " · <b>hand over its limit</b>" if facts.hand_over_limit else ""
+    where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm{over}"
     return (f"<b>{e(situation(facts))}</b>", met, person, mode, where)
 
 
