@@ -80,7 +80,7 @@ FLAG_ORIENTATION, FLAG_SSM, FLAG_STOP, FLAG_PROTECTIVE, FLAG_PROTECTIVE_HELD, FL
 #: ``out_i`` header: status, filter level, stopped, binding rows, relaxed rows, worst relaxed
 #: row, motion limited, smoothness given up, protective stop, motion-limited rows, evading (the
 #: anticipative command carried the repulsion from a person), the hand's executed path over its
-#: limits (``HAND_OVER_*`` bits); then the binding rows' codes, then the motion-limited rows' codes.
+#: limits (below); then the binding rows' codes, then the motion-limited rows' codes.
 (I_STATUS, I_LEVEL, I_STOPPED, I_BINDING, I_RELAXED, I_WORST, I_MOTION_LIMITED, I_SMOOTHNESS, I_PROTECTIVE,
  I_MOTION_COUNT, I_EVADING, I_HAND_OVER) = range(12)
 OUT_I_HEADER = 16
@@ -88,12 +88,12 @@ OUT_I_HEADER = 16
 #: gave way (the hand's may too); only the hand's (the joints' kept); the safety net scaled the
 #: step (the filter's command kept every row).
 GAVE_WAY_JOINTS, GAVE_WAY_HAND, GAVE_WAY_NET = 1, 2, 3
-#: ``out_i[I_HAND_OVER]`` bits: the end-effector's executed path (the backward differences of its
+#: ``out_i[I_HAND_OVER]`` 1: the end-effector's executed path (the backward differences of its
 #: positions, as ``motion_ratios`` measures a run) went over the robot's end-effector
-#: acceleration limit, its jerk limit, this step (by more than ``OVER_LIMIT_RATIO``). The filter
-#: bounds the hand's acceleration on ``J qddot``; the path's curvature ``dJ/dt qdot`` has the
-#: tenth of the limit left for it, which a body turning fast in the hand's null space can exceed.
-HAND_OVER_ACCELERATION, HAND_OVER_JERK = 1, 2
+#: acceleration or jerk limit this step (by more than ``OVER_LIMIT_RATIO``; which one: the two
+#: ratios in ``out_f``). The filter bounds the hand's acceleration on ``J qddot``; the path's
+#: curvature ``dJ/dt qdot`` has the tenth of the limit left for it, which a body turning fast in
+#: the hand's null space can exceed.
 STATUS_DONE, STATUS_UNKNOWN_KIND = 0, 1
 #: Row codes: ``(owner + 4) << 20 | a << 10 | b``; owner >= 0 a limitation (its index), else
 #: one of these (``a`` a joint or axis, ``b`` 0 lower / 1 upper).
@@ -118,7 +118,7 @@ def output_layout(nq, nv, n_caps, nj):  # pragma: no cover - compiled
     brake_factor (the largest factor by which a bound exceeded the motion limits), the step's
     joint acceleration ratio (max over joints of |qddot| / limit), the joints' rotations oR
     (nj, 3, 3) and positions op (nj, 3) at q_next, the executed hand path's acceleration and jerk
-    over the robot's end-effector limits (norms; ``HAND_OVER_*``), and the total size. The
+    over the robot's end-effector limits (norms; ``I_HAND_OVER``), and the total size. The
     kinematics at q_next (p_ee to cap_p1, oR, op) are the next step's at its q
     (``previous_kinematics``)."""
     sizes = (nq, nv, 3, 9, 6 * nv, 3 * n_caps, 3 * n_caps, 3, 3, 1, 3, 3, 1, 1, 1, 1, 1, 9 * nj, 3 * nj, 2)
@@ -723,8 +723,7 @@ def arm_step(state_f, kin_f, v_desired, dt_s, strategy, flags, human_ahead_s, re
     hand_jerk_ratio = np.sqrt(np.sum(((a_hand - a_hand_prev) / dt_s) ** 2)) / ee_jerk
     out_f[offsets[19]] = hand_acceleration_ratio
     out_f[offsets[19] + 1] = hand_jerk_ratio
-    out_i[I_HAND_OVER] = (HAND_OVER_ACCELERATION if hand_acceleration_ratio > OVER_LIMIT_RATIO else 0) | (
-        HAND_OVER_JERK if hand_jerk_ratio > OVER_LIMIT_RATIO else 0)
+    out_i[I_HAND_OVER] = int(max(hand_acceleration_ratio, hand_jerk_ratio) > OVER_LIMIT_RATIO)
     state_f[0:nq] = q_next
     state_f[nq:nq + nv] = qdot_exec
     state_f[nq + nv:nq + 2 * nv] = (qdot_exec - qdot_prev) / dt_s
