@@ -378,19 +378,24 @@ def test_the_iiwas_default_release_keeps_its_hands_acceleration_limit():
     assert run.ratios.max_ee_acceleration_ratio <= 1.0 + 1e-9
 
 
-@pytest.mark.parametrize("robot, dt_s", [("iiwa", 0.001), ("iiwa", 1 / 275), ("panda", 0.001)])
-def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s):
+@pytest.mark.parametrize("robot, dt_s, run", [("iiwa", 0.001, "drag-release"), ("iiwa", 1 / 275, "drag-release"),
+                                              ("panda", 0.001, "drag-release"), ("iiwa", 0.001, "invariant")])
+def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s, run):
     """Never silent: the hand's executed path (its positions' backward differences, from rest)
     over the robot's end-effector acceleration or jerk limit at exactly the steps the step's
     report says so (``hand_over_limit``), with the same ratios; the controller's count is those
     steps, and the run's ``hand_over_limit_steps`` too. The iiwa's default drag-release at 1 kHz
-    goes over (the strict xfail above: the path's curvature), so the report is exercised."""
+    goes over its acceleration limit (the strict xfail above: the path's curvature), and the
+    iiwa's random teleoperation over its jerk limit alone, so both checks are exercised."""
     from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO, ee_derivatives
+
+    def commands(c):
+        return drag_release(c, dt_s) if run == "drag-release" else limit_runs.invariant_commands(dt_s)
 
     c = ArmController(robot)
     limits = c.model.limits
     hands, reports = [c.state.p_world_ee.copy()], []
-    for v in drag_release(c, dt_s):
+    for v in commands(c):
         reports.append(c.step(v, dt_s, "anticipative"))
         hands.append(c.state.p_world_ee.copy())
     d = ee_derivatives(np.array(hands), dt_s)
@@ -404,10 +409,13 @@ def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s):
     assert np.array_equal(said, over)
     assert c.hand_over_limit_steps == int(over.sum())
     if robot == "iiwa" and dt_s == 0.001:
-        assert over.sum() > 0
+        exercised = acceleration > OVER_LIMIT_RATIO if run == "drag-release" else (
+            (jerk > OVER_LIMIT_RATIO) & (acceleration <= OVER_LIMIT_RATIO))
+        assert exercised.sum() > 0
     c.reset()
-    run = _measure("drag-release", c, drag_release(c, dt_s), dt_s)
-    assert run.hand_over_limit_steps == int(over.sum()) and run.as_json()["hand_over_limit_steps"] == over.sum()
+    measured = _measure(run, c, commands(c), dt_s)
+    assert measured.hand_over_limit_steps == int(over.sum())
+    assert measured.as_json()["hand_over_limit_steps"] == over.sum()
 
 
 def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypatch):
