@@ -203,6 +203,25 @@ def test_status_segment_and_plot_show_one_minimum_distance():
         demo.server.stop()
 
 
+def test_the_motion_line_names_whose_acceleration_shapes_a_drag_from_rest():
+    """Issue 20 item 7, end to end: a drag from rest ramps up within the hand's acceleration
+    limit, and the status's motion line says so in a reader's words, from the loop's own
+    report; once at speed, "within the robot's limits"."""
+    demo = DemoApp(DemoConfig(scene="arm", robot="panda", port=free_local_port()))
+    try:
+        ee = demo.loop.snapshot().p_base_ee_m
+        demo.loop.set_gizmo_target(ee + np.array([0.0, 0.3, 0.0]))
+        shown = []
+        for frame in range(60):
+            demo.loop.step_once()
+            demo.render_once()
+            shown.append(demo.last_status_lines[4] if demo.last_status_lines else "")
+        assert "Motion: <b>acceleration-limited</b> by the hand" in shown
+        assert shown[-1] == "Motion: within the robot's limits"
+    finally:
+        demo.server.stop()
+
+
 def test_the_report_s_witness_points_are_drawn_when_it_has_them():
     """After the control core's rebuild the report carries the pair: the display draws exactly that."""
     from types import SimpleNamespace

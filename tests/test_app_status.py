@@ -85,19 +85,26 @@ def test_planar_and_stale_lines():
 
 def test_the_watchdogs_word_and_the_acceleration_limit_are_shown():
     """The controller being careful with an old human model, a step whose motion the
-    acceleration or jerk limits shaped (issue 20 item 7), and one whose hand went over its own
-    limits, each say so on their line; a fresh step says none."""
+    acceleration or jerk limits shaped (issue 20 item 7: whose, in a reader's words), and one
+    whose hand went over its own limits, each say so on their line; a fresh step says none."""
     careful = status_lines(facts(report(), human_present=True, distance_m=0.5,
                                  careful="human model 0.12 s old: grown by 0.14 m <b>"))
     assert careful[2] == "Person: <b>human model 0.12 s old: grown by 0.14 m &lt;b&gt;</b>"
-    limited = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=True))
-    assert limited[3].endswith(" · <b>acceleration-limited</b>")
+    limited = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)),
+                                 motion_limited=("panda_joint2 acceleration", "end-effector acceleration")))
+    assert limited[4] == "Motion: <b>acceleration-limited</b> by joint 2; the hand"
+    assert limited[3] == "Mode <b>anticipative</b> · SSM <b>off</b> · loop <b>1000 Hz</b>"  # the mode line alone
+    many = status_lines(facts(report(), motion_limited=tuple(f"panda_joint{k} acceleration" for k in (1, 3, 6, 7))))
+    assert many[4] == "Motion: <b>acceleration-limited</b> by joint 1; joint 3 (+2 more)"
     fresh = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), human_present=True, distance_m=0.5))
-    assert "acceleration-limited" not in fresh[3] and fresh[2] == "Person: <b>500 mm</b> from the arm"
+    assert fresh[4] == "Motion: within the robot's limits" and fresh[2] == "Person: <b>500 mm</b> from the arm"
     assert "hand over its limit" not in "".join(fresh) and "hand over its limit" not in "".join(limited)
-    over = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=True, hand_over_limit=True))
-    assert over[3].endswith(" · <b>acceleration-limited</b>")  # the mode line as before
-    assert over[4] == "EE x=483.1 y=-0.4 z=413.2 mm · <b>hand over its limit</b>"  # the hand's own line
+    over = status_lines(facts(report(v_desired=(0.1, 0.0, 0.0)), motion_limited=("panda_joint4 acceleration",),
+                              hand_over_limit=True))
+    assert over[4] == "Motion: <b>acceleration-limited</b> by joint 4 · <b>hand over its limit</b>"
+    alone = status_lines(facts(report(), hand_over_limit=True))
+    assert alone[4] == "Motion: <b>hand over its limit</b>"  # never "within the robot's limits" beside it
+    assert over[5] == alone[5] == "EE x=483.1 y=-0.4 z=413.2 mm"  # the hand's position line as before
 
 
 def test_html_block_has_fixed_height_and_fixed_rows_whatever_the_text():

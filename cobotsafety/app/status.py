@@ -2,8 +2,9 @@
 
 ``status_lines`` reads one control-loop report (and the human shown with it) and returns
 ``STATUS_LINES`` lines, always that many: a sentence saying what the arm is doing and why, the
-limits it meets (``limit_words``), the person's distance, the mode and loop rate, and the hand's
-position. ``status_html`` lays them out in a fixed-height block, one line each (too long: cut
+limits it meets (``limit_words``), the person's distance, the mode and loop rate, the motion
+against the robot's own limits (which joints' or the hand's acceleration shaped the step; the
+hand over its limit), and the hand's position. ``status_html`` lays them out in a fixed-height block, one line each (too long: cut
 with an ellipsis, the whole line in its tooltip), so the buttons below never move while the
 replay plays. Every piece of text from outside (reasons, names) is HTML-escaped.
 """
@@ -17,7 +18,7 @@ import numpy as np
 
 from cobotsafety.app.limit_words import HUMAN, RobotVocabulary, describe, in_play
 
-STATUS_LINES = 5
+STATUS_LINES = 6
 SENTENCE_ROWS = 2
 """The sentence may wrap once; every other line keeps to one row."""
 LINE_HEIGHT_EM = 1.55
@@ -52,8 +53,9 @@ class StatusFacts:
     """"" when the replay is ready, else why it is not (e.g. "loading exp1")."""
     careful: str = ""
     """The controller's word on old or missing human data ("" when fresh): slower, then stopped."""
-    motion_limited: bool = False
-    """The robot's joint acceleration or jerk limits shaped this step's motion."""
+    motion_limited: tuple[str, ...] = ()
+    """Whose acceleration or jerk limit shaped this step's motion (``ArmStepReport.motion_limited``:
+    ``"<joint> acceleration"``, ``"end-effector acceleration"``); () when none did."""
     hand_over_limit: bool = False
     """The hand's executed path went over the robot's end-effector acceleration or jerk limit
     (its curvature: ``ArmStepReport.hand_over_limit``) within the last second
@@ -67,9 +69,13 @@ def _limits(facts: StatusFacts) -> list:
 
 
 def _listed(limits: list) -> str:
-    words = [limit.words for limit in limits[:SHOWN_LIMITS]]
-    more = len(limits) - SHOWN_LIMITS
-    return "; ".join(words) + (f" (+{more} more)" if more > 0 else "")
+    return _counted([limit.words for limit in limits])
+
+
+def _counted(words: list) -> str:
+    """The first ``SHOWN_LIMITS`` words, the rest counted ("(+2 more)")."""
+    more = len(words) - SHOWN_LIMITS
+    return "; ".join(words[:SHOWN_LIMITS]) + (f" (+{more} more)" if more > 0 else "")
 
 
 def situation(facts: StatusFacts) -> str:
@@ -132,13 +138,25 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
         person = f"Person: <b>{facts.distance_m * 1e3:.0f} mm</b> from the arm{kept}"
     monitoring = "" if facts.ssm is None else f" · SSM <b>{'on' if facts.ssm else 'off'}</b>"
     rate = round(facts.rate_hz / RATE_STEP_HZ) * RATE_STEP_HZ  # the block is re-sent only when it changes
-    smooth = " · <b>acceleration-limited</b>" if facts.motion_limited else ""
-    mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{rate:.0f} Hz</b>{smooth}"
+    mode = f"Mode <b>{e(facts.method)}</b>{monitoring} · loop <b>{rate:.0f} Hz</b>"
     x, y, z = (float(c) * 1e3 for c in facts.p_base_ee_m)
-    # (on the hand's own line: the mode line is already full, its end cut at the panel's width)
-    over = " · <b>hand over its limit</b>" if facts.hand_over_limit else ""
-    where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm{over}"
-    return (f"<b>{e(situation(facts))}</b>", met, person, mode, where)
+    where = f"EE x={x:.1f} y={y:.1f} z={z:.1f} mm"
+    return (f"<b>{e(situation(facts))}</b>", met, person, mode, _motion(facts), where)
+
+
+def _motion(facts: StatusFacts) -> str:
+    """The motion against the robot's own limits: "within its limits", or whose acceleration
+    limit shaped the step ("acceleration-limited by joint 2; the hand"), and "hand over its
+    limit" while the hand's executed path is over its own limits."""
+    shaped = [facts.vocabulary.joint_words(name.removesuffix(" acceleration")) if name != "end-effector acceleration"
+              else "the hand" for name in facts.motion_limited]
+    words = []
+    if shaped:
+        words.append(f"<b>acceleration-limited</b> by {html.escape(_counted(shaped))}")
+    if facts.hand_over_limit:
+        words.append("<b>hand over its limit</b>")
+    return "Motion: " + (" · ".join(words) or "within the robot's limits")
+
 
 
 def status_html(lines: tuple[str, ...]) -> str:
