@@ -60,37 +60,56 @@ def _joints_best_rate_acceleration(a, qddot, acc, jerk, t):
 
 @SETTINGS
 @given(a=st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7),
-       at=st.lists(st.sampled_from([-1.0, -0.5, 0.0, 0.7, 1.0]) | st.floats(-1.0, 1.0), min_size=7, max_size=7),
+       at=st.lists(st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.7, 1.0, 2.5]) | st.floats(-3.0, 3.0), min_size=7,
+                   max_size=7),
        robot_name=st.sampled_from(sorted(ROBOTS)))
 def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_name):
     """The rate's acceleration ``row_capacity`` models (from ``a . qddot`` up at ``ramp``, then
-    ``decel``) is below the most the joints can give at every moment (the joints' ramps are
-    piecewise linear, so checking at each joint's knee and the line's end suffices), and not
-    loose: the line reaches ``decel`` when the last joint reaches its limit. Fails with the
-    ramp taken as ``sum_j |a_j| jerk_j`` whenever a joint on the row is already at its limit
-    (the arm braking or turning hard: the drags' steps that gave up smoothness)."""
+    ``decel``; each joint's acceleration held within its limit) is below the most the joints can
+    give at every moment (the joints' ramps are piecewise linear, so checking at each joint's
+    knee and the line's end suffices), and not loose: the line reaches ``decel`` when the last
+    joint reaches its limit. Fails with the ramp taken as ``sum_j |a_j| jerk_j`` whenever a
+    joint on the row is already at its limit (the arm braking or turning hard: the drags' steps
+    that gave up smoothness), and with a joint beyond its limit (``at`` beyond +-1: after such a
+    step) counted at its excess: the slope then collapses (``test_row_capacity_of_a_joint_beyond
+    _its_limit``)."""
     limits = robot(robot_name).limits
     n = min(7, limits.acceleration_rad_s2.shape[0])
     acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
     A = np.array([a[:n]])
     assume(np.any(A != 0.0))
     qddot = np.array(at[:n]) * acc
+    held = np.clip(qddot, -acc, acc)
     qdot = np.array(at[::-1][:n]) * limits.velocity_rad_s[:n]
     rate, accel, decel, ramp, ramp_all, reach = row_capacity(A, 0, qdot, qddot, acc, jerk, limits.velocity_rad_s[:n])
     assert rate == pytest.approx(float(A[0] @ qdot), rel=1e-12, abs=1e-12)
     assert reach == pytest.approx(float(np.abs(A[0]) @ limits.velocity_rad_s[:n]), rel=1e-12)
     assert decel == pytest.approx(float(np.abs(A[0]) @ acc), rel=1e-12)
-    assert accel == pytest.approx(float(A[0] @ qddot), rel=1e-12, abs=1e-12)
+    assert accel == pytest.approx(float(A[0] @ qddot), rel=1e-12, abs=1e-12)  # the rate's own, not held
     assert ramp_all == pytest.approx(float(np.abs(A[0]) @ jerk), rel=1e-12)
     assert 0.0 < ramp <= ramp_all
-    helping = np.sign(A[0]) * qddot
+    within = float(A[0] @ held)
+    helping = np.sign(A[0]) * held
     knees = [(acc[j] - helping[j]) / jerk[j] for j in range(n) if A[0, j] != 0.0 and helping[j] < acc[j]]
-    end = (decel - accel) / ramp
+    end = (decel - within) / ramp
     for t in [0.0, end, *knees]:
-        model = min(accel + ramp * t, decel)
-        assert model <= _joints_best_rate_acceleration(A[0], qddot, acc, jerk, t) + 1e-9 * decel
+        model = min(within + ramp * t, decel)
+        assert model <= _joints_best_rate_acceleration(A[0], held, acc, jerk, t) + 1e-9 * decel
     if knees:
         assert end == pytest.approx(max(knees), rel=1e-9)
+
+
+def test_row_capacity_of_a_joint_beyond_its_limit():
+    """After a step that gave up smoothness: joint 1 at three times its limit toward the row's
+    braking, joint 2 just beyond its limit the other way, so ``a . qddot`` (1.9) is nearly the
+    row's capacity (2) while joint 2 still has 0.2 s to ramp. Held at their limits, the joints
+    ramp the row at joint 2's full jerk, 10 (counted at their excess, 0.48: the collapse that
+    made the iiwa's safety bound ask 51-55 times a joint's acceleration limit in one step)."""
+    acc, jerk, vel = np.array([1.0, 1.0]), np.array([10.0, 10.0]), np.array([2.0, 2.0])
+    _, accel, decel, ramp, ramp_all, _ = row_capacity(np.array([[1.0, 1.0]]), 0, np.zeros(2), np.array([3.0, -1.1]),
+                                                     acc, jerk, vel)
+    assert (accel, decel, ramp_all) == (pytest.approx(1.9), 2.0, 20.0)
+    assert ramp == pytest.approx(10.0)
 
 
 @SETTINGS
