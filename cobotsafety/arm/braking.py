@@ -262,11 +262,15 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
 @numba.njit(cache=True)
 def safe_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no cover - compiled
     """``viable_speed``, and when the state is beyond its reach, the same bound with the
-    deceleration and jerk scaled up by the least factor (found by bisection, at most 1000)
-    that makes it viable again: safety wins over smoothness, exceeding the motion limits only as
-    much as stopping before the limitation needs. Returns ``(speed [m/s or rad/s], factor)``
-    (factor 1: within the limits); at a gap <= 0, ``(0, 1)``; beyond ``MAX_BRAKE_FACTOR``,
-    ``braking_speed`` at that factor (the step may then close the gap at once)."""
+    deceleration and jerk scaled up by the least factor that makes it viable again (by
+    bisection below ``MAX_BRAKE_FACTOR``): safety wins over smoothness, exceeding the motion
+    limits only as much as stopping before the limitation needs. Returns ``(speed [m/s or
+    rad/s], factor)`` (factor 1: within the limits); at a gap <= 0, ``(0, 1)``; when the
+    braking is not viable at ``MAX_BRAKE_FACTOR``, ``braking_speed`` at that factor (the step
+    may then close the gap at once). The hardest braking's excess is not monotone in the factor
+    (it falls as the limits grow, then rises with the discrete steps' excess), so that fallback
+    can come where a smaller factor would do: found, measured and kept (searching for the least
+    factor made the iiwa's drags worse: docs/motion_limits.md, "Held-out drag seeds")."""
     allowed = viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap)
     if not np.isnan(allowed):
         return allowed, 1.0
