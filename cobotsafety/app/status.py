@@ -4,9 +4,9 @@
 ``STATUS_LINES`` lines, always that many: a sentence saying what the arm is doing and why, the
 limits it meets (``limit_words``), the person's distance, the mode and loop rate, the motion
 against the robot's own limits (which joints' or the hand's acceleration shaped the step; the
-hand over its limit), and the hand's position. ``status_html`` lays them out in a fixed-height block, one line each (too long: cut
-with an ellipsis, the whole line in its tooltip), so the buttons below never move while the
-replay plays. Every piece of text from outside (reasons, names) is HTML-escaped.
+hand over its limit), and the hand's position. ``status_html`` lays them out in a fixed-height
+block, one line each (too long: cut with an ellipsis, the whole line in its tooltip), so the
+buttons below never move while the replay plays. Every piece of text from outside (reasons, names) is HTML-escaped.
 """
 
 from __future__ import annotations
@@ -145,9 +145,9 @@ def status_lines(facts: StatusFacts) -> tuple[str, ...]:
 
 
 def _motion(facts: StatusFacts) -> str:
-    """The motion against the robot's own limits: "within its limits", or whose acceleration
-    limit shaped the step ("acceleration-limited by joint 2; the hand"), and "hand over its
-    limit" while the hand's executed path is over its own limits."""
+    """The motion against the robot's own limits: "within the robot's limits", or whose
+    acceleration limit shaped the step ("acceleration-limited by joint 2; the hand"), and "hand
+    over its limit" while the hand's executed path is over its own limits."""
     shaped = [facts.vocabulary.joint_words(name.removesuffix(" acceleration")) if name != "end-effector acceleration"
               else "the hand" for name in facts.motion_limited]
     words = []
