@@ -620,7 +620,7 @@ class DemoApp:
             stale_reason=human.reason if human is not None and human.stale else "",
             replay_playing=self.replay.playing, replay_state=replay_state,
             careful=getattr(report, "human_status", "") or "",
-            motion_limited=tuple(getattr(report, "motion_limited", ()) or ()),
+            motion_limited=tuple(getattr(report, "motion_limited", ())),
             hand_over_limit=snapshot.hand_over_limit, failure=self.loop.failure or "")
 
     def render_once(self, wall_dt_s: float = 0.0) -> None:

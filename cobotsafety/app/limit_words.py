@@ -12,6 +12,7 @@ name                                   kind                                     
 ``panda_joint3 speed``, ``velocity 9``  joint speed (old: row ``i`` of ``2 nv``:     ring at the joint
                                        ``i < nv`` lower, else upper, joint ``i % nv``)
 ``panda_joint3 acceleration``          joint acceleration                          ring at the joint
+``end-effector acceleration``          hand acceleration                           (words only)
 ``speed``, ``speed -z``                hand speed                                  (words only)
 ``reach inner`` / ``reach extended``   reach                                       reach sphere
 ``table (panda_joint6)``               table                                       the table top
@@ -36,6 +37,7 @@ JOINT_POSITION = "joint position"
 JOINT_SPEED = "joint speed"
 JOINT_ACCELERATION = "joint acceleration"
 HAND_SPEED = "hand speed"
+HAND_ACCELERATION = "hand acceleration"
 REACH = "reach"
 TABLE = "table"
 ZONE = "zone"
@@ -125,6 +127,8 @@ def describe(name: str, vocabulary: RobotVocabulary = RobotVocabulary()) -> Limi
         return Limit(name, JOINT_SPEED, f"{words(joint)} at its speed limit", joint, side, joint)
     if name == "speed" or re.fullmatch(r"speed [+-][xyz]", name):
         return Limit(name, HAND_SPEED, "the hand at its speed limit")
+    if name == "end-effector acceleration":
+        return Limit(name, HAND_ACCELERATION, "the hand at its acceleration limit")
     if name in ("reach inner", "reach extended"):
         side = name.split(" ")[1]
         text = "the arm at full stretch" if side == "extended" else "the hand folded in close to the shoulder"

@@ -6,7 +6,8 @@ limits it meets (``limit_words``), the person's distance, the mode and loop rate
 against the robot's own limits (which joints' or the hand's acceleration shaped the step; the
 hand over its limit), and the hand's position. ``status_html`` lays them out in a fixed-height
 block, one line each (too long: cut with an ellipsis, the whole line in its tooltip), so the
-buttons below never move while the replay plays. Every piece of text from outside (reasons, names) is HTML-escaped.
+buttons below never move while the replay plays. Every piece of text from outside (reasons,
+names) is HTML-escaped.
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cobotsafety.app.limit_words import HUMAN, RobotVocabulary, describe, in_play
+from cobotsafety.app.limit_words import (HAND_ACCELERATION, HUMAN, JOINT_ACCELERATION, RobotVocabulary, describe,
+                                          in_play)
 
 STATUS_LINES = 6
 SENTENCE_ROWS = 2
@@ -148,8 +150,7 @@ def _motion(facts: StatusFacts) -> str:
     """The motion against the robot's own limits: "within the robot's limits", or whose
     acceleration limit shaped the step ("acceleration-limited by joint 2; the hand"), and "hand
     over its limit" while the hand's executed path is over its own limits."""
-    shaped = [facts.vocabulary.joint_words(name.removesuffix(" acceleration")) if name != "end-effector acceleration"
-              else "the hand" for name in facts.motion_limited]
+    shaped = [_whose(describe(name, facts.vocabulary), facts.vocabulary) for name in facts.motion_limited]
     words = []
     if shaped:
         words.append(f"<b>acceleration-limited</b> by {html.escape(_counted(shaped))}")
@@ -157,6 +158,12 @@ def _motion(facts: StatusFacts) -> str:
         words.append("<b>hand over its limit</b>")
     return "Motion: " + (" · ".join(words) or "within the robot's limits")
 
+
+def _whose(limit, vocabulary: RobotVocabulary) -> str:
+    """Whose acceleration limit a motion row is: "joint 2", "the hand" (else its words)."""
+    if limit.kind == JOINT_ACCELERATION:
+        return vocabulary.joint_words(limit.joint)
+    return "the hand" if limit.kind == HAND_ACCELERATION else limit.words
 
 
 def status_html(lines: tuple[str, ...]) -> str:
