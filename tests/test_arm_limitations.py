@@ -324,3 +324,71 @@ def test_each_rows_pull_and_drift_are_how_fast_the_arm_coasts_toward_it(name):
             assert got_drift == pytest.approx(-row.normal @ second, rel=1e-4, abs=1e-5)
             drifted += abs(got_drift) > 0.1
     assert pulled >= 5 and drifted >= 50
+
+
+def _zone_rows_against_their_distance(seed: int, states: int = 30):
+    """Every capsule or sphere zone row of ``random_scene`` at random states and joint
+    velocities, over all robots: ``(drift, the true approach, whether the row's closest point
+    lies inside its capsule's segment)``, the true approach being minus the second derivative of
+    the capsule's clearance from the zone (the oracle's ``capsule_pair``, independent of the
+    compiled geometry) as the arm coasts along ``q (+) t qdot``, by central differences. Rows
+    whose closest point moves between an end and the segment's inside within the difference's
+    step (a kink) are left out."""
+    found = []
+    h = 1e-4
+    for name in ROBOT_NAMES:
+        model = robot(name)
+        rng = np.random.default_rng(seed + ROBOT_NAMES.index(name))
+        for _ in range(states):
+            q = random_configuration(model.model, rng)
+            qdot = rng.normal(size=model.nv) * rng.uniform(0.1, 1.5)
+            limitations, human, ahead_s, _ = random_scene(model, Kinematics(model, q), rng)
+            kin = compiled_kinematics(model, q, qdot)[0]
+            hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, ahead_s)
+            *_, tag, _, drift, _ = compiled_pulls(pack_scene(limitations, model), model, kin, hum, np.inf)
+            coasted = [Kinematics(model, pin.integrate(model.model, q, qdot * t)) for t in (-h, 0.0, h)]
+            for (con, c, _), got in zip(tag, drift, strict=True):
+                zone = limitations[con]
+                if not isinstance(zone, (SphereZone, CapsuleZone)):
+                    continue
+                z0, z1 = ((zone.center, zone.center) if isinstance(zone, SphereZone) else (zone.p0, zone.p1))
+                clearance, inside = [], []
+                for k in coasted:
+                    d, pa, _ = capsule_pair(k.p0[c], k.p1[c], k.radius[c], np.array(z0), np.array(z1), zone.radius_m)
+                    axis = k.p1[c] - k.p0[c]
+                    s = float((pa - k.p0[c]) @ axis / (axis @ axis)) if axis @ axis > 0.0 else 0.0
+                    clearance.append(d)
+                    inside.append(1e-6 < s < 1.0 - 1e-6)
+                if len(set(inside)) > 1:
+                    continue
+                approach = -(clearance[0] - 2.0 * clearance[1] + clearance[2]) / (h * h)
+                found.append((float(got), approach, inside[1]))
+    return found
+
+
+def test_a_zone_rows_drift_at_a_segments_end_is_at_least_how_fast_its_clearance_closes():
+    """Where a zone row's closest point is an end of the robot capsule's segment, its ``drift``
+    (the point's own acceleration along the row, ``kinematics.drift_along``) is never less than
+    how fast the capsule's true clearance closes as the arm coasts: the point is the closest
+    one, and the row's direction turning as it moves only bends the clearance away (convex
+    zones). A braking planned on the drift is then never short."""
+    rows = [(got, approach) for got, approach, inside in _zone_rows_against_their_distance(7000) if not inside]
+    assert len(rows) > 300
+    short = [(got, approach) for got, approach in rows if got < approach - 1e-3]
+    assert not short, short[:5]
+    assert sum(approach < got - 0.05 for got, approach in rows) > 20  # the turning's slack is there
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "a capsule's closest point inside its segment slides along it as the link turns, and the clearance, "
+    "a minimum over the segment, closes faster than that point's own motion says (the envelope: d'' = "
+    "f_tt - g^T H^-1 g): on 4 % of these rows by more than 0.05 m/s^2, up to 5.9 m/s^2 (the kinova); the "
+    "iiwa's wrist past the demo's sphere zone in a held-out hand drag closed at 0.86 m/s^2 where the row "
+    "said it receded at 0.06 (docs/motion_limits.md, 'A link's closest point sliding'). Counting it in the "
+    "drift was tried and made the hand drags worse (docs/tried/zone_sliding_drift.patch)"))
+def test_a_zone_rows_drift_inside_a_segment_is_at_least_how_fast_its_clearance_closes():
+    """The same where the closest point lies inside the segment."""
+    rows = [(got, approach) for got, approach, inside in _zone_rows_against_their_distance(7000) if inside]
+    assert len(rows) > 100
+    short = [(got, approach) for got, approach in rows if got < approach - 1e-3]
+    assert not short, f"{len(short)} of {len(rows)} rows short, e.g. {short[:3]}"
