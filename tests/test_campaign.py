@@ -514,8 +514,25 @@ def test_a_run_within_the_limits_is_the_same_on_both_plants(robot, person):
     assert {k: v for k, v in limited.items() if k != "plant"} == {k: v for k, v in ideal.items() if k != "plant"}
 
 
+def test_the_campaigns_ssm_reaches_each_controller_and_is_recorded():
+    """``--ssm``: ISO/TS 15066's speed and separation monitoring on every controller of the run.
+    A person approaching the panda (person 4 of seed 0): with the protective stop every
+    controller's arm is held for a while, without it never; each result says which SSM ran; a
+    mode that does not exist is one clear error."""
+    from cobotsafety.tools.campaign.person_run import run_person
+
+    controllers = ("anticipative", "reactive", "stop")
+    off = run_person("panda", 4, 0, controllers, escape_check=False)  # the default
+    stop = run_person("panda", 4, 0, controllers, escape_check=False, ssm="stop")
+    assert [r["ssm"] for r in off + stop] == ["off"] * 3 + ["stop"] * 3
+    assert all(r["protective_stop_time_s"] == 0.0 for r in off)
+    assert all(r["protective_stop_time_s"] > 0.0 for r in stop)
+    with pytest.raises(ValueError, match="ssm must be one of"):
+        run_person("panda", 4, 0, ("anticipative",), escape_check=False, ssm="slow")
+
+
 def test_a_directory_holding_another_campaign_is_refused(tmp_path):
-    """Resuming a directory with another plant or seed would mix two campaigns' results: one
+    """Resuming a directory with another plant, seed or SSM would mix two campaigns' results: one
     clear error, nothing run."""
     from cobotsafety.errors import CampaignError
 
@@ -525,6 +542,10 @@ def test_a_directory_holding_another_campaign_is_refused(tmp_path):
                      plant="rate-limited")
     with pytest.raises(CampaignError, match="seed 0 there, 3 asked"):
         run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=3, workers=1, progress=False)
+    # (a campaign from before the SSM was recorded ran without it)
+    with pytest.raises(CampaignError, match="ssm 'off' there, 'stop' asked"):
+        run_campaign(tmp_path, ("iiwa",), ("stop",), people=1, seed=0, workers=1, progress=False, plant="ideal",
+                     ssm="stop")
     assert not (tmp_path / "results").exists()
     for text in ("{not json", "[1, 2]"):
         (tmp_path / "campaign.json").write_text(text)

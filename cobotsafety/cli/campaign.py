@@ -1,7 +1,7 @@
 """``cobotsafety campaign``: a validation campaign over many drawn people (``cobotsafety.tools.campaign``).
 
     cobotsafety campaign --robot iiwa [--robot panda] --controller all --people 1000 [--seed 0]
-        [--workers 2] [--ray ADDRESS|local] [--plant rate-limited|ideal] --out DIR
+        [--workers 2] [--ray ADDRESS|local] [--plant rate-limited|ideal] [--ssm off|scaling|stop] --out DIR
 """
 
 from __future__ import annotations
@@ -28,6 +28,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plant", default=DEFAULT_PLANT, choices=PLANTS,
                         help="how the arm follows the commands: through the robot's rate limiter, closed loop "
                              "(rate-limited, default: libfranka's rule with the robot's limits), or exactly (ideal)")
+    from cobotsafety.experiments.approach_step import SSM_MODES
+
+    parser.add_argument("--ssm", default="off", choices=SSM_MODES,
+                        help="ISO/TS 15066 speed and separation monitoring on every controller: off (default), "
+                             "scaling (the approach to a person at most the standard's speed for the separation) or "
+                             "stop (the protective stop below the protective separation distance)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="results, report.md and report.json")
 
 
@@ -48,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
         except ImportError:
             raise SystemExit("--ray needs Ray: pip install 'cobotsafety[ray]'") from None
     out = run_campaign(args.out, tuple(args.robot), controllers, args.people, args.seed, args.workers, args.ray,
-                       escape_check=not args.no_escape_check, plant=args.plant)
+                       escape_check=not args.no_escape_check, plant=args.plant, ssm=args.ssm)
     print(json.dumps(out["timing"]))
     print(f"report: {args.out / 'report.md'}, {args.out / 'report.json'}")
     return 0

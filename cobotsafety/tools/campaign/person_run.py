@@ -29,13 +29,16 @@ RESULT_KEYS = ("robot", "controller", "person", "seed", "drawn", "true_min_dista
                "escape_best_min_distance_m", "escape_after_detection", "detected_before_closest_s",
                "escape_after_approach_onset", "approach_onset_before_closest_s", "completed",
                "completion_time_s", "time_lost_s", "peak_ee_speed_m_s", "max_joint_acceleration_ratio",
-               "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "rate_limited_steps",
+               "stopped_time_s", "protective_stop_time_s", "posture_recoveries", "plant", "ssm", "rate_limited_steps",
                "safety_over_smoothness_steps", "max_ee_acceleration_ratio", "max_ee_jerk_ratio")
 #: How the arm follows the controller's command: through the robot's rate limiter
 #: (``rate-limited``, closed loop: ``arm.rate_limiter``; the default: a real arm does not follow a
 #: command beyond its motion limits), or exactly (``ideal``).
 PLANTS = ("rate-limited", "ideal")
 DEFAULT_PLANT = PLANTS[0]
+#: ISO/TS 15066 speed and separation monitoring on every controller (``approach_step.SSM_MODES``):
+#: none (the default: each controller as it is), speed scaling, or the protective stop.
+DEFAULT_SSM = "off"
 
 
 def campaign_task(home_m: np.ndarray):
@@ -97,14 +100,20 @@ def detection_time_s(t_s: np.ndarray, seen_m: np.ndarray, closest_s: float, dt_s
 
 
 def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], dt_s: float = 1 / settings.CONTROL_RATE_HZ,
-               escape_check: bool = True, nominal_s: float | None = None, plant: str = DEFAULT_PLANT) -> list[dict]:
+               escape_check: bool = True, nominal_s: float | None = None, plant: str = DEFAULT_PLANT,
+               ssm: str = DEFAULT_SSM) -> list[dict]:
     """One result dict (``RESULT_KEYS``) per controller for person ``index``; ``nominal_s``:
     the task's time with nobody there (default ``nominal_completion_s``); ``plant``: the arm
     follows every command (``"ideal"``) or each command through the robot's rate limiter
-    (``"rate-limited"``, ``arm.rate_limiter``; the filter sees the state it reached)."""
+    (``"rate-limited"``, ``arm.rate_limiter``; the filter sees the state it reached); ``ssm``:
+    ISO/TS 15066's speed and separation monitoring on each controller (``"off"``, ``"scaling"``,
+    ``"stop"``: ``approach_step.make_controller``)."""
+    from cobotsafety.experiments import approach_step
+
     if plant not in PLANTS:
         raise ValueError(f"plant must be one of {PLANTS}, got {plant!r}")
-    from cobotsafety.experiments import approach_step
+    if ssm not in approach_step.SSM_MODES:
+        raise ValueError(f"ssm must be one of {approach_step.SSM_MODES}, got {ssm!r}")
     from cobotsafety.experiments.approach_truth import TruthHuman
     from cobotsafety.experiments.human_approach import HumanSeries, episode_metrics, run_episode
     from cobotsafety.human.replay import Replay
@@ -119,7 +128,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
     nominal = nominal_s if nominal_s is not None else nominal_completion_s(robot, dt_s)
     results = []
     for name in controllers:
-        controller = approach_step.make_controller(robot, name)
+        controller = approach_step.make_controller(robot, name, ssm=ssm)
         path = campaign_task(approach_step.state(controller).p_world_ee.copy())
         end_s = max(nominal + TIMEOUT_EXTRA_S, replay.duration_s)
         log = run_episode(controller, humans, recording.body, path, dt_s, end_s, truth, replay.start_s,
@@ -167,7 +176,7 @@ def run_person(robot: str, index: int, seed: int, controllers: tuple[str, ...], 
             "peak_ee_speed_m_s": round(m.peak_ee_speed_m_s, 4),
             "max_joint_acceleration_ratio": round(m.max_joint_acceleration_ratio, 4),
             "stopped_time_s": round(m.stopped_time_s, 4), "protective_stop_time_s": round(m.protective_stop_time_s, 4),
-            "posture_recoveries": log.posture_recoveries, "plant": plant,
+            "posture_recoveries": log.posture_recoveries, "plant": plant, "ssm": ssm,
             "rate_limited_steps": log.rate_limited_steps,
             "safety_over_smoothness_steps": m.safety_over_smoothness_steps,
             "max_ee_acceleration_ratio": round(m.max_ee_acceleration_ratio, 4),

@@ -15,8 +15,9 @@ recovery*: whose task stalled at joint limits and moved home (``control.recovery
 the acceleration limit*: whose run commanded a joint acceleration above the robot's limit at
 least once (``max_joint_acceleration_ratio`` above ``OVER_LIMIT``): steps where safety won over
 smoothness, a motion a real arm would not follow (libfranka's and KUKA's controllers stop the
-robot on it), so the distances of those runs are of an arm that did what no real one could. The
-*plant* says how the arm followed the commands: ``ideal`` (exactly, every step) or
+robot on it), so the distances of those runs are of an arm that did what no real one could.
+*SSM*: ISO/TS 15066's speed and separation monitoring on every controller of the run (``off``,
+``scaling``, ``stop``; results from before it was recorded ran without it). The *plant* says how the arm followed the commands: ``ideal`` (exactly, every step) or
 ``rate-limited`` (through the robot's rate limiter, ``arm.rate_limiter``, closed loop: the
 filter saw the state the arm reached); *people rate-limited*: whose run had at least one step the
 limiter changed (with it, the acceleration ratios are of the motion the arm made, at most 1; the
@@ -42,7 +43,7 @@ REPORT_KEYS = ("robot", "controller", "people", "breaches", "breach_rate_upper_9
                "median_true_min_distance_m", "p05_true_min_distance_m", "completion_rate", "median_time_lost_s",
                "max_joint_acceleration_ratio", "people_over_acceleration_limit", "people_with_posture_recovery",
                "plant", "people_rate_limited", "people_with_safety_over_smoothness", "max_ee_acceleration_ratio",
-               "people_over_hand_limits")
+               "people_over_hand_limits", "ssm")
 #: A run's largest joint acceleration ratio counts as over the limit above this (the filter plans
 #: within ``MOTION_MARGIN`` of the limits; finite differences of a kept run give at most 1.0000).
 OVER_LIMIT = 1.001
@@ -86,6 +87,7 @@ def summarise(results: list[dict]) -> list[dict]:
             "people_over_acceleration_limit": sum(r["max_joint_acceleration_ratio"] > OVER_LIMIT for r in rows),
             "people_with_posture_recovery": sum(r.get("posture_recoveries", 0) > 0 for r in rows),
             "plant": "/".join(sorted({r.get("plant", "ideal") for r in rows})),
+            "ssm": "/".join(sorted({r.get("ssm", "off") for r in rows})),
             "people_rate_limited": sum(r.get("rate_limited_steps", 0) > 0 for r in rows),
             "people_with_safety_over_smoothness": None if any("safety_over_smoothness_steps" not in r for r in rows)
             else sum(r["safety_over_smoothness_steps"] > 0 for r in rows),  # (None: results from before it was kept)
@@ -114,9 +116,9 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
              "| robot | controller | people | breaches | breach rate ≤ (95 %) | with escape | of which after detection | "
              "of which after the approach began | "
              "median true min | p05 true min | completion | median time lost | max joint accel ratio | "
-             "people over the accel limit | posture moves home | plant | people rate-limited | "
+             "people over the accel limit | posture moves home | plant | SSM | people rate-limited | "
              "people with safety over smoothness | max hand accel ratio | people over the hand's limits |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     fmt = lambda v, unit="": "—" if v is None else f"{v}{unit}"  # noqa: E731
     for s in summary:
         lines.append(f"| {s['robot']} | {s['controller']} | {s['people']} | {s['breaches']} | "
@@ -125,7 +127,7 @@ def write_report(results: list[dict], out_dir: Path, header: str = "") -> list[d
                      f"{fmt(s['median_true_min_distance_m'], ' m')} | {fmt(s['p05_true_min_distance_m'], ' m')} | "
                      f"{s['completion_rate']:.3f} | {fmt(s['median_time_lost_s'], ' s')} | "
                      f"{s['max_joint_acceleration_ratio']:.2f} | {s['people_over_acceleration_limit']} | "
-                     f"{s['people_with_posture_recovery']} | {s['plant']} | {s['people_rate_limited']} | "
+                     f"{s['people_with_posture_recovery']} | {s['plant']} | {s['ssm']} | {s['people_rate_limited']} | "
                      f"{fmt(s['people_with_safety_over_smoothness'])} | {fmt(s['max_ee_acceleration_ratio'])} | "
                      f"{fmt(s['people_over_hand_limits'])} |")
     lines += ["", "Breaches by what the person did (kind / reach):", ""]

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from cobotsafety.experiments import approach_settings as settings
-from cobotsafety.tools.campaign.person_run import DEFAULT_PLANT
+from cobotsafety.tools.campaign.person_run import DEFAULT_PLANT, DEFAULT_SSM
 
 CONTROLLERS = ("anticipative", "reactive", "stop")
 
@@ -45,7 +45,7 @@ def pending_tasks(out_dir: Path, robots, controllers, people: int) -> list[tuple
 
 
 def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], dt_s: float, escape_check: bool,
-             nominal_s: float | None = None, plant: str = DEFAULT_PLANT) -> tuple[list[dict], float]:
+             nominal_s: float | None = None, plant: str = DEFAULT_PLANT, ssm: str = DEFAULT_SSM) -> tuple[list[dict], float]:
     """One task in a worker (``person_run.run_person``): its results and the CPU time it took
     [s] (the worker process's, so a shared machine's load does not count); the step's warnings
     are not printed."""
@@ -58,7 +58,7 @@ def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], d
     logger.setLevel(logging.ERROR)  # for this task only (it may run in the caller's process)
     try:
         start = time.process_time()
-        results = run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s, plant)
+        results = run_person(robot, person, seed, controllers, dt_s, escape_check, nominal_s, plant, ssm)
         return results, time.process_time() - start
     finally:
         logger.setLevel(level)
@@ -71,10 +71,14 @@ def _save(out_dir: Path, outcome: tuple[list[dict], float], cpu: list) -> None:
         _write_atomic(result_path(out_dir, r["robot"], r["controller"], r["person"]), json.dumps(r, sort_keys=True) + "\n")
 
 
+#: Settings ``campaign.json`` gained after its first campaigns, as those ran.
+_RECORDED_LATER = {"ssm": "off"}
+
+
 def _check_settings(out_dir: Path, wanted: dict) -> None:
-    """``DIR/campaign.json`` records the seed, period and plant the first run used; a later run
+    """``DIR/campaign.json`` records the seed, period, plant and SSM the first run used; a later run
     with others raises ``CampaignError`` (a directory without it, from before it was written, is
-    taken as it is)."""
+    taken as it is; one without the SSM, from before it was recorded, ran without it)."""
     from cobotsafety.errors import CampaignError
 
     path = Path(out_dir) / "campaign.json"
@@ -85,6 +89,7 @@ def _check_settings(out_dir: Path, wanted: dict) -> None:
             raise CampaignError(f"{path} is not a campaign's settings ({error}): use a new --out directory") from None
         if not isinstance(found, dict):
             raise CampaignError(f"{path} is not a campaign's settings (not an object): use a new --out directory")
+        found = {**_RECORDED_LATER, **found}
         differ = {k: (found[k], v) for k, v in wanted.items() if k in found and found[k] != v}
         if differ:
             said = ", ".join(f"{k} {was!r} there, {now!r} asked" for k, (was, now) in differ.items())
@@ -106,9 +111,9 @@ def load_results(out_dir: Path, robots, controllers, people: int) -> list[dict]:
 
 def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 100, seed: int = 0, workers: int = 2,
                  ray_address: str | None = None, dt_s: float = 1 / settings.CONTROL_RATE_HZ, escape_check: bool = True,
-                 progress: bool = True, plant: str = DEFAULT_PLANT) -> dict:
+                 progress: bool = True, plant: str = DEFAULT_PLANT, ssm: str = DEFAULT_SSM) -> dict:
     """Run what is missing, then write the report; returns ``{"summary", "timing"}``. A
-    directory holds one campaign: resuming it with another seed, period or plant raises
+    directory holds one campaign: resuming it with another seed, period, plant or SSM raises
     ``CampaignError`` (its results would mix)."""
     from tqdm import tqdm
 
@@ -117,7 +122,7 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
     out_dir = Path(out_dir)
     from cobotsafety.tools.campaign.person_run import nominal_completion_s
 
-    _check_settings(out_dir, {"seed": seed, "dt_s": dt_s, "plant": plant})
+    _check_settings(out_dir, {"seed": seed, "dt_s": dt_s, "plant": plant, "ssm": ssm})
     tasks = pending_tasks(out_dir, robots, controllers, people)
     start = time.perf_counter()
     nominal = {robot: nominal_completion_s(robot, dt_s) for robot in {t[0] for t in tasks}}  # once, not per worker
@@ -125,16 +130,16 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
     bar = tqdm(total=len(tasks), desc="people", unit="person", disable=not progress)
     cpu: list[float] = []
     if tasks and ray_address:
-        _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, ray_address, workers, bar, cpu, plant)
+        _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, ray_address, workers, bar, cpu, plant, ssm)
     elif tasks and workers <= 1:
         for robot, person, missing, nominal_s in tasks:
-            _save(out_dir, run_task(robot, person, seed, missing, dt_s, escape_check, nominal_s, plant), cpu)
+            _save(out_dir, run_task(robot, person, seed, missing, dt_s, escape_check, nominal_s, plant, ssm), cpu)
             bar.update()
     elif tasks:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = [pool.submit(run_task, robot, person, seed, missing, dt_s, escape_check, nominal_s, plant)
+            futures = [pool.submit(run_task, robot, person, seed, missing, dt_s, escape_check, nominal_s, plant, ssm)
                        for robot, person, missing, nominal_s in tasks]
             for future in as_completed(futures):
                 _save(out_dir, future.result(), cpu)
@@ -150,12 +155,12 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
               "load_average": list(os.getloadavg())}
     (out_dir / "timing.json").write_text(json.dumps(timing, indent=1) + "\n")
     header = (f"{people} people (seed {seed}) x robots {', '.join(robots)} x controllers {', '.join(controllers)}; "
-              f"control at {1 / dt_s:.0f} Hz; plant {plant}; scanner at the table corner; learned leg detector + person tracker.")
+              f"control at {1 / dt_s:.0f} Hz; plant {plant}; SSM {ssm}; scanner at the table corner; learned leg detector + person tracker.")
     summary = write_report(load_results(out_dir, robots, controllers, people), out_dir, header)
     return {"summary": summary, "timing": timing}
 
 
-def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar, cpu, plant) -> None:
+def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar, cpu, plant, ssm) -> None:
     import ray
 
     if not ray.is_initialized():
@@ -167,7 +172,7 @@ def _run_on_ray(out_dir, tasks, seed, dt_s, escape_check, address, workers, bar,
         else:
             ray.init(address=address, log_to_driver=False)
     remote = ray.remote(run_task)
-    pending = [remote.remote(robot, person, seed, missing, dt_s, escape_check, nominal_s, plant)
+    pending = [remote.remote(robot, person, seed, missing, dt_s, escape_check, nominal_s, plant, ssm)
                for robot, person, missing, nominal_s in tasks]
     while pending:
         done, pending = ray.wait(pending, num_returns=1)
