@@ -12,7 +12,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, braking_distance, braking_speed,
+from cobotsafety.arm.braking import (MAX_BRAKE_FACTOR, arm_stop_time, beyond_ramp, braking_distance, braking_speed,
                                      hardest_braking_excess, positive_root, row_capacity, safe_speed, stop_distance,
                                      stop_time, viable_speed)
 from cobotsafety.arm.robots import ROBOTS
@@ -110,6 +110,59 @@ def test_row_capacity_of_a_joint_beyond_its_limit():
                                                      acc, jerk, vel)
     assert (accel, decel, ramp_all) == (pytest.approx(1.9), 2.0, 20.0)
     assert ramp == pytest.approx(10.0)
+
+
+@SETTINGS
+@given(a=st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7),
+       at=st.lists(st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.7, 1.0, 2.5]) | st.floats(-3.0, 3.0), min_size=7,
+                   max_size=7),
+       factor=st.sampled_from([1.0, 1.001, 1.5, 50.0]) | st.floats(1.0, 50.0),
+       robot_name=st.sampled_from(sorted(ROBOTS)))
+def test_beyond_ramp_is_a_ramp_the_joints_can_give_at_the_scaled_limits(a, at, factor, robot_name):
+    """Beyond the limits (``safe_speed`` scaling them by ``factor``), the rate's acceleration
+    modelled from ``a . qddot`` up at ``factor slope - start`` to ``factor`` times the row's
+    capacity is below the most the joints can give at every moment, each ramping toward ``factor
+    acc_j`` at ``factor jerk_j`` from its acceleration now (one beyond even that stays there),
+    checked at each joint's knee and the line's end; at ``factor`` 1 the line reaches the
+    capacity only once every joint is at its limit."""
+    limits = robot(robot_name).limits
+    n = min(7, limits.acceleration_rad_s2.shape[0])
+    acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
+    A = np.array([a[:n]])
+    assume(np.any(A != 0.0))
+    qddot = np.array(at[:n]) * acc
+    slope, start = beyond_ramp(A, 0, qddot, acc, jerk)
+    now = float(A[0] @ qddot)
+    top = factor * float(np.abs(A[0]) @ acc)
+    rise = factor * slope - start
+    on = A[0] != 0.0
+    t_max = float(np.max(np.maximum(2.0 * acc[on], acc[on] + np.abs(qddot[on])) / jerk[on]))
+    assert (slope, start) == (pytest.approx(top / factor / t_max, rel=1e-12), pytest.approx(now / t_max, rel=1e-12,
+                                                                                          abs=1e-15))
+    helping = np.sign(A[0]) * qddot
+    knees = [(factor * acc[j] - helping[j]) / (factor * jerk[j]) for j in range(n)
+             if A[0, j] != 0.0 and helping[j] < factor * acc[j]]
+    end = (top - now) / rise if rise > 0.0 else 0.0
+    for t in [0.0, end, *knees]:
+        model = min(now + max(rise, 0.0) * t, top) if rise > 0.0 else now
+        best = _joints_best_rate_acceleration(A[0], qddot, factor * acc, factor * jerk, t)
+        assert model <= best + 1e-9 * top
+
+
+def test_safe_speed_beyond_the_limits_ramps_as_the_joints_can_not_as_the_chord_within_them():
+    """A held-out hand drag (the iiwa at 1 kHz, drag-turns seed 306, step 5523; the arguments
+    the step gave ``safe_speed``): the sphere zone's row on the wrist's capsule 0.14 mm outside
+    its buffer, approached at 17 mm/s and already braked at 1.029 m/s^2, beyond its capacity of
+    1.009. ``row_capacity``'s chord to that capacity is then nearly flat (0.33 m/s^3), and scaled
+    by any factor up to ``MAX_BRAKE_FACTOR`` no braking is viable: the fallback (approach
+    nothing) asked 18.8 times a joint's acceleration limit in that step and, its own jump making
+    the next rows unviable, 595 times in the next. At the scaled limits each joint can ramp on
+    (``beyond_ramp``): a braking 1.82 times the limits stops in time."""
+    args = (1.4378571064670252e-04, 0.017070846931496943, -1.02892625885884, 1.0089258390798692,
+            0.33350009295276273, 0.001, 0.5045133708770223)
+    assert safe_speed(*args) == (0.0, MAX_BRAKE_FACTOR)  # the chord within the limits, scaled
+    allowed, factor = safe_speed(*args, 20.178516781597388, 9.801396595798908, 9.995694371455969)
+    assert 1.0 < factor < 2.0 and allowed > 0.016  # braking on from its 17 mm/s, not stopped in a step
 
 
 @SETTINGS

@@ -144,7 +144,7 @@ def test_every_registered_kind_dispatches_and_an_unknown_code_does_not():
                np.empty((size, 3), dtype=np.int64), np.zeros(size), np.zeros(size))
         before = np.full(size, np.nan)
         m = kind_rows(module.KIND, real, skip, 0, kin, hum, np.inf, out, 0, before)
-        if kind_type is BoxZone:  # each capsule's closest point, and its ends unless one is that point
+        if kind_type in (BoxZone, CapsuleZone, SphereZone):  # each capsule's closest point, its ends unless one is
             closest = out[4][:m][out[4][:m, 2] == 0, 1]
             assert sorted(closest) == list(range(1, n_caps)) and size // 3 * 2 <= m <= size
         else:
@@ -330,10 +330,10 @@ def _zone_rows_against_their_distance(seed: int, states: int = 30):
     """Every capsule or sphere zone row of ``random_scene`` at random states and joint
     velocities, over all robots: ``(drift, the true approach, whether the row's closest point
     lies inside its capsule's segment)``, the true approach being minus the second derivative of
-    the capsule's clearance from the zone (the oracle's ``capsule_pair``, independent of the
-    compiled geometry) as the arm coasts along ``q (+) t qdot``, by central differences. Rows
-    whose closest point moves between an end and the segment's inside within the difference's
-    step (a kink) are left out."""
+    the capsule's clearance from the zone (an end's row: that end's) (the oracle's
+    ``capsule_pair``, independent of the compiled geometry) as the arm coasts along ``q (+) t
+    qdot``, by central differences. Rows whose closest point moves between an end and the
+    segment's inside within the difference's step (a kink) are left out."""
     found = []
     h = 1e-4
     for name in ROBOT_NAMES:
@@ -347,14 +347,15 @@ def _zone_rows_against_their_distance(seed: int, states: int = 30):
             hum = human_tuple(human.p0, human.p1, human.radius, human.v0, human.v1, ahead_s)
             *_, tag, _, drift, _ = compiled_pulls(pack_scene(limitations, model), model, kin, hum, np.inf)
             coasted = [Kinematics(model, pin.integrate(model.model, q, qdot * t)) for t in (-h, 0.0, h)]
-            for (con, c, _), got in zip(tag, drift, strict=True):
+            for (con, c, b), got in zip(tag, drift, strict=True):
                 zone = limitations[con]
                 if not isinstance(zone, (SphereZone, CapsuleZone)):
                     continue
                 z0, z1 = ((zone.center, zone.center) if isinstance(zone, SphereZone) else (zone.p0, zone.p1))
                 clearance, inside = [], []
                 for k in coasted:
-                    d, pa, _ = capsule_pair(k.p0[c], k.p1[c], k.radius[c], np.array(z0), np.array(z1), zone.radius_m)
+                    a0, a1 = (k.p0[c], k.p1[c]) if b == 0 else ((k.p0[c],) * 2 if b == 1 else (k.p1[c],) * 2)
+                    d, pa, _ = capsule_pair(a0, a1, k.radius[c], np.array(z0), np.array(z1), zone.radius_m)
                     axis = k.p1[c] - k.p0[c]
                     s = float((pa - k.p0[c]) @ axis / (axis @ axis)) if axis @ axis > 0.0 else 0.0
                     clearance.append(d)
@@ -384,8 +385,9 @@ def test_a_zone_rows_drift_at_a_segments_end_is_at_least_how_fast_its_clearance_
     "a minimum over the segment, closes faster than that point's own motion says (the envelope: d'' = "
     "f_tt - g^T H^-1 g): on 4 % of these rows by more than 0.05 m/s^2, up to 5.9 m/s^2 (the kinova); the "
     "iiwa's wrist past the demo's sphere zone in a held-out hand drag closed at 0.86 m/s^2 where the row "
-    "said it receded at 0.06 (docs/motion_limits.md, 'A link's closest point sliding'). Counting it in the "
-    "drift was tried and made the hand drags worse (docs/tried/zone_sliding_drift.patch)"))
+    "said it receded at 0.06 (docs/motion_limits.md, 'Held-out drags by the thousand'). Counting it in the "
+    "drift was tried and made the hand drags worse (docs/tried/zone_sliding_drift.patch); the zone's rows at "
+    "the capsule's ends brake the end the closest point slides to instead"))
 def test_a_zone_rows_drift_inside_a_segment_is_at_least_how_fast_its_clearance_closes():
     """The same where the closest point lies inside the segment."""
     rows = [(got, approach) for got, approach, inside in _zone_rows_against_their_distance(7000) if inside]

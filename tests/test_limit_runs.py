@@ -54,23 +54,23 @@ def test_releases_hold_within_the_limits(robot, pulls):
 
 
 def test_a_drag_whose_box_contradicts_a_zone_keeps_the_limits_within_the_hands_ball():
-    """The panda's drag-turns, seed 9, at 1 kHz: at 4.42 s joint 7's capsule slides on the sphere
-    zone with joints 5 and 7 at their speed limits and joint 6 braking toward its upper limit; the
-    zone's safety bound, the joints' boxes and one face of the hand's per-axis box contradicted
-    (2.3e-4 m/s short), and the motion limits gave way (joint 4's jerk 1.0016 times its limit).
-    The hand's limits are norms: the box is the ball inscribed, and the rest of the ball holds
-    the step. Every step's hand acceleration and jerk (the joints' part: ``J dqdot / dt`` and its
-    change from ``J qddot``) stay within ``EE_MOTION_SHARE`` of their norms; some step leaves
-    the box."""
+    """The iiwa's drag-turns, seed 6, at 1 kHz: from 2.0 s joint a7's capsule slides on the sphere
+    zone while the joints brake toward their limits, and for 36 steps the zone's safety bound,
+    the joints' boxes and a face of the hand's per-axis box contradict. The hand's limits are
+    norms: the box is the ball inscribed, and the rest of the ball holds those steps. Every
+    step's hand acceleration and jerk (the joints' part: ``J dqdot / dt`` and its change from
+    ``J qddot``) stay within ``EE_MOTION_SHARE`` of their norms; some step leaves the box. (It
+    was the panda's drag-turns seed 9 until the zone's rows at each capsule end, with which no
+    panda drag of seeds 0-39 leaves the box.)"""
     from cobotsafety.arm.motion_box import EE_AXIS_SHARE, EE_MOTION_SHARE, MOTION_MARGIN
 
-    c = ArmController("panda")
+    c = ArmController("iiwa")
     limits, dt = c.model.limits, 0.001
     box_acc = MOTION_MARGIN * EE_AXIS_SHARE * limits.ee_acceleration_m_s2
     box_jerk = MOTION_MARGIN * EE_AXIS_SHARE * limits.ee_jerk_m_s3
     hand_acc, hand_jerk, beyond_box = [], [], 0
     qs = [c.state.q.copy()]
-    for v in drag_turns(c, dt, seed=9):
+    for v in drag_turns(c, dt, seed=6):
         J, qdot_prev, qddot_prev = c.state.J_ee.copy(), c.joint_velocity_rad_s, c.joint_acceleration_rad_s2
         c.step(v, dt)
         a = J @ (c.joint_velocity_rad_s - qdot_prev) / dt
@@ -84,7 +84,7 @@ def test_a_drag_whose_box_contradicts_a_zone_keeps_the_limits_within_the_hands_b
     assert ratios.max_joint_acceleration_ratio <= 1.0 + 1e-9 and ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
     assert max(hand_acc) <= EE_MOTION_SHARE * limits.ee_acceleration_m_s2 * (1 + 1e-9)
     assert max(hand_jerk) <= EE_MOTION_SHARE * limits.ee_jerk_m_s3 * (1 + 1e-9)
-    assert beyond_box >= 1
+    assert beyond_box >= 10
 
 
 def _drive_to_lower_limit(robot: str, joint: str):
@@ -134,9 +134,10 @@ def test_a_drive_at_the_box_zone_holds_the_limits_as_its_capsule_tilts_along_a_f
     assert run.ratios.max_joint_jerk_ratio <= 1.0 + 1e-9
 
 
-OFF_PERIOD = ("1 % off the measured 1 ms the iiwa's drags give up smoothness (0.99 ms, drag-turns: 48 steps, "
-              "jerk 102 times its limit, joint a6's upper limit and the extended reach binding at once; 1.01 ms, "
-              "drag-release: 70, the same two): each row's bound is viable alone, but the joints that would "
+OFF_PERIOD = ("1 % off the measured 1 ms the iiwa's drag-turns gives up smoothness (0.99 ms: 52 steps, "
+              "jerk 33 times its limit, joint a6's upper limit and the extended reach binding at once; drag-release "
+              "at 1.01 ms gave up 70 the same way until the zones' rows at each capsule end): each row's bound is "
+              "viable alone, but the joints that would "
               "hold the hand off the reach while the wrist brakes are committed the other way, and their jerk "
               "limits take 30-50 ms to turn them (docs/motion_limits.md, 'Two limitations at once')")
 
@@ -144,7 +145,7 @@ OFF_PERIOD = ("1 % off the measured 1 ms the iiwa's drags give up smoothness (0.
 @pytest.mark.parametrize("robot, run, dt_s", [
     ("panda", "drag-turns", 0.00099), ("panda", "drag-release", 0.00101),
     pytest.param("iiwa", "drag-turns", 0.00099, marks=pytest.mark.xfail(strict=True, reason=OFF_PERIOD)),
-    pytest.param("iiwa", "drag-release", 0.00101, marks=pytest.mark.xfail(strict=True, reason=OFF_PERIOD))])
+    ("iiwa", "drag-release", 0.00101)])  # (an xfail like the one above until the rows at each capsule end)
 def test_the_hand_drags_hold_the_limits_one_percent_off_the_period(robot, run, dt_s):
     """``experiment limits``' drags at a period 1 % off 1 ms: a real controller's period jitters,
     and issue 20 asks for no step giving up smoothness in the hand drags."""
@@ -379,18 +380,23 @@ def test_the_iiwas_default_release_keeps_its_hands_acceleration_limit():
 
 
 @pytest.mark.parametrize("robot, dt_s, run", [("iiwa", 0.001, "drag-release"), ("iiwa", 1 / 275, "drag-release"),
-                                              ("panda", 0.001, "drag-release"), ("iiwa", 0.001, "invariant")])
+                                              ("panda", 0.001, "drag-release"), ("iiwa", 0.001, "drag-turns"),
+                                              ("iiwa", 0.001, "invariant")])
 def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s, run):
     """Never silent: the hand's executed path (its positions' backward differences, from rest)
     over the robot's end-effector acceleration or jerk limit at exactly the steps the step's
     report says so (``hand_over_limit``), with the same ratios; the controller's count is those
     steps, and the run's ``hand_over_limit_steps`` too. The iiwa's default drag-release at 1 kHz
-    goes over its acceleration limit (the strict xfail above: the path's curvature), and the
-    iiwa's random teleoperation over its jerk limit alone, so both checks are exercised."""
+    goes over its acceleration limit (the strict xfail above: the path's curvature), and its
+    drag-turns with seed 1 over its jerk limit alone, so both checks are exercised. (That was the
+    iiwa's random teleoperation until the zones' rows at each capsule end: it now stays within
+    the hand's limits.)"""
     from cobotsafety.experiments.motion_ratios import OVER_LIMIT_RATIO, ee_derivatives
 
     def commands(c):
-        return drag_release(c, dt_s) if run == "drag-release" else limit_runs.invariant_commands(dt_s)
+        if run == "drag-release":
+            return drag_release(c, dt_s)
+        return drag_turns(c, dt_s, seed=1) if run == "drag-turns" else limit_runs.invariant_commands(dt_s)
 
     c = ArmController(robot)
     limits = c.model.limits
@@ -408,7 +414,7 @@ def test_the_step_reports_each_step_its_hand_goes_over_its_limits(robot, dt_s, r
     said = np.array([r.hand_over_limit for r in reports])
     assert np.array_equal(said, over)
     assert c.hand_over_limit_steps == int(over.sum())
-    if robot == "iiwa" and dt_s == 0.001:
+    if robot == "iiwa" and dt_s == 0.001 and run != "invariant":
         exercised = acceleration > OVER_LIMIT_RATIO if run == "drag-release" else (
             (jerk > OVER_LIMIT_RATIO) & (acceleration <= OVER_LIMIT_RATIO))
         assert exercised.sum() > 0
@@ -441,17 +447,18 @@ def test_a_recordings_run_is_measured_by_the_same_ratios_as_its_metrics(monkeypa
 
 
 def test_where_the_limitations_leave_no_room_the_hands_limits_give_way_before_the_joints():
-    """The iiwa's drag-release with seed 6 at 1 kHz meets limitations that leave the motion
+    """The iiwa's drag-release with seed 4 at 1 kHz meets limitations that leave the motion
     limits no room (counted steps). The hand's box gives way first: every joint keeps its
     acceleration and jerk limits, the ones a robot's controller enforces on a joint command, and
-    only the hand's limits (the iiwa's are our 0.2 g principle) are exceeded, counted. (With the
-    joints' and the hand's boxes giving way together, a joint reached 1.61 times its
-    acceleration and 42 times its jerk limit here.)"""
+    only the hand's limits (the iiwa's are our 0.2 g principle) are exceeded, counted. (This was
+    seed 6 until the zones' rows at each capsule end; there, with the joints' and the hand's
+    boxes giving way together, a joint reached 1.61 times its acceleration and 42 times its jerk
+    limit.)"""
     c = ArmController("iiwa")
     reasons = []
 
     def commands():
-        for v in drag_release(c, 0.001, seed=6):
+        for v in drag_release(c, 0.001, seed=4):
             yield v
             if c.last_report.safety_over_smoothness:
                 reasons.append(c.last_report.reason)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cobotsafety.arm.braking import row_capacity, safe_speed, stop_time
+from cobotsafety.arm.braking import beyond_ramp, row_capacity, safe_speed, stop_time
 from cobotsafety.arm.motion_box import EE_AXIS_SHARE
 from cobotsafety.arm.ssm import approach_speed_kernel
 
@@ -70,6 +70,8 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0
         rate_now, rate_accel, decel, jerk_n, jerk_all, reach = row_capacity(A, i, qdot_prev, qddot_prev, acc, jerk,
                                                                              vel)
         own_speed, own_accel = -rate_now, -rate_accel
+        beyond_slope, beyond_start = beyond_ramp(A, i, qddot_prev, acc, jerk)
+        beyond_all = jerk_all
         if rate[i] < 0.0:
             # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
             # time the arm's approach takes to end; with the ramp from the joints' state now that
@@ -80,6 +82,7 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0
         if not angular[i]:  # within the end-effector's box along any direction (per axis / sqrt(3))
             decel = min(decel, EE_AXIS_SHARE * ee_acc)
             jerk_n = min(jerk_n, EE_AXIS_SHARE * ee_jerk)
+            beyond_all = min(beyond_all, EE_AXIS_SHARE * ee_jerk)
         # What draws the arm toward the limitation at its speed now: part of its approach's
         # acceleration, and held against by the brake while the arm slides on. The plan counts
         # the limitation's curvature; the safety bound the row's point's drift as well.
@@ -133,11 +136,13 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0
                 # fastest it may take next step, braking at the row's limits).
                 fastest_next = max(own_speed, 0.0) + decel * dt_s
                 room = gap - human_closing * stop_time(fastest_next, own_accel, decel, jerk_n, dt_s)
-                allowed, factor = safe_speed(room, own_speed, own_accel, decel, jerk_n, dt_s, reach)
+                allowed, factor = safe_speed(room, own_speed, own_accel, decel, jerk_n, dt_s, reach, beyond_all,
+                                             beyond_slope, beyond_start)
                 worst_factor = max(worst_factor, factor)
                 safety_bound = -allowed
             else:
-                allowed, factor = safe_speed(gap, speed_now, own_accel, decel, jerk_n, dt_s, reach + human_closing)
+                allowed, factor = safe_speed(gap, speed_now, own_accel, decel, jerk_n, dt_s, reach + human_closing,
+                                             beyond_all, beyond_slope, beyond_start)
                 worst_factor = max(worst_factor, factor)
                 safety_bound = human_closing - allowed
             width = width_rad if angular[i] else width_m

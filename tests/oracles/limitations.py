@@ -119,6 +119,7 @@ def _zone_segment(lim):
 
 
 def capsule_zone_rows(lim, con: int, kin: Kinematics, human: Human, activation_m: float):
+    """Per capsule: the closest point's row, then each end's (unless it is the closest point)."""
     z0, z1 = _zone_segment(lim)
     rows, measured = [], []
     for c in _capsules(kin, lim.skip_capsules):
@@ -127,6 +128,12 @@ def capsule_zone_rows(lim, con: int, kin: Kinematics, human: Human, activation_m
         if d < activation_m:
             u = unit(pa - pb, UP)
             rows.append(Row(d, u @ kin.capsule_jacobian(c, pa), 0.0, False, (con, c, 0), pa, u))
+        for end, e in enumerate((kin.p0[c], kin.p1[c])):
+            d_end, _, pz = capsule_pair(e, e, kin.radius[c], z0, z1, lim.radius_m)
+            measured.append(d_end)
+            if d_end < activation_m and not (d < activation_m and np.allclose(e, pa, rtol=0, atol=1e-9)):
+                u_end = unit(e - pz, UP)
+                rows.append(Row(d_end, u_end @ kin.capsule_jacobian(c, e), 0.0, False, (con, c, 1 + end), e, u_end))
     return rows, measured
 
 

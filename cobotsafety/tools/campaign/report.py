@@ -17,9 +17,10 @@ least once (``max_joint_acceleration_ratio`` above ``OVER_LIMIT``): steps where 
 smoothness, a motion a real arm would not follow (libfranka's and KUKA's controllers stop the
 robot on it), so the distances of those runs are of an arm that did what no real one could.
 *SSM*: ISO/TS 15066's speed and separation monitoring on every controller of the run (``off``,
-``scaling``, ``stop``; results from before it was recorded ran without it). The *plant* says how the arm followed the commands: ``ideal`` (exactly, every step) or
-``rate-limited`` (through the robot's rate limiter, ``arm.rate_limiter``, closed loop: the
-filter saw the state the arm reached); *people rate-limited*: whose run had at least one step the
+``scaling``, ``stop``; results from before it was recorded ran without it). The *plant* says how
+the arm followed the commands: ``ideal`` (exactly, every step) or ``rate-limited`` (through the
+robot's rate limiter, ``arm.rate_limiter``, closed loop: the filter saw the state the arm
+reached); *people rate-limited*: whose run had at least one step the
 limiter changed (with it, the acceleration ratios are of the motion the arm made, at most 1; the
 limiter also changes commands within the limits: its speed-dependent acceleration bound, linear
 in the speed left, is stricter than the jerk-limited ramp the filter plans with); *people with

@@ -45,7 +45,8 @@ def pending_tasks(out_dir: Path, robots, controllers, people: int) -> list[tuple
 
 
 def run_task(robot: str, person: int, seed: int, controllers: tuple[str, ...], dt_s: float, escape_check: bool,
-             nominal_s: float | None = None, plant: str = DEFAULT_PLANT, ssm: str = DEFAULT_SSM) -> tuple[list[dict], float]:
+             nominal_s: float | None = None, plant: str = DEFAULT_PLANT,
+             ssm: str = DEFAULT_SSM) -> tuple[list[dict], float]:
     """One task in a worker (``person_run.run_person``): its results and the CPU time it took
     [s] (the worker process's, so a shared machine's load does not count); the step's warnings
     are not printed."""
@@ -155,7 +156,8 @@ def run_campaign(out_dir: Path, robots, controllers=CONTROLLERS, people: int = 1
               "load_average": list(os.getloadavg())}
     (out_dir / "timing.json").write_text(json.dumps(timing, indent=1) + "\n")
     header = (f"{people} people (seed {seed}) x robots {', '.join(robots)} x controllers {', '.join(controllers)}; "
-              f"control at {1 / dt_s:.0f} Hz; plant {plant}; SSM {ssm}; scanner at the table corner; learned leg detector + person tracker.")
+              f"control at {1 / dt_s:.0f} Hz; plant {plant}; SSM {ssm}; scanner at the table corner; "
+              "learned leg detector + person tracker.")
     summary = write_report(load_results(out_dir, robots, controllers, people), out_dir, header)
     return {"summary": summary, "timing": timing}
 
