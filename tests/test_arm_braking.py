@@ -58,10 +58,26 @@ def _joints_best_rate_acceleration(a, qddot, acc, jerk, t):
     return float(np.sum(np.abs(a) * np.maximum(np.minimum(acc, helping + jerk * t), helping)))
 
 
+#: A row's weights on seven joints (some zero), and the joints' accelerations as shares of their
+#: limits, up to three times beyond them.
+row_weights = st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7)
+joint_accelerations = st.lists(st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.7, 1.0, 2.5]) | st.floats(-3.0, 3.0),
+                               min_size=7, max_size=7)
+
+
+def _row_state(a, at, robot_name):
+    """``(limits, n, acc, jerk, A (1, n), qddot (n,))`` for a drawn row on the robot's first
+    joints (at most seven) and accelerations ``at`` times their limits."""
+    limits = robot(robot_name).limits
+    n = min(7, limits.acceleration_rad_s2.shape[0])
+    acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
+    A = np.array([a[:n]])
+    assume(np.any(A != 0.0))
+    return limits, n, acc, jerk, A, np.array(at[:n]) * acc
+
+
 @SETTINGS
-@given(a=st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7),
-       at=st.lists(st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.7, 1.0, 2.5]) | st.floats(-3.0, 3.0), min_size=7,
-                   max_size=7),
+@given(a=row_weights, at=joint_accelerations,
        robot_name=st.sampled_from(sorted(ROBOTS)))
 def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_name):
     """The rate's acceleration ``row_capacity`` models (from ``a . qddot`` up at ``ramp``, then
@@ -73,12 +89,7 @@ def test_row_capacity_is_a_deceleration_the_joints_can_always_give(a, at, robot_
     that gave up smoothness), and with a joint beyond its limit (``at`` beyond +-1: after such a
     step) counted at its excess: the slope then collapses (``test_row_capacity_of_a_joint_beyond
     _its_limit``)."""
-    limits = robot(robot_name).limits
-    n = min(7, limits.acceleration_rad_s2.shape[0])
-    acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
-    A = np.array([a[:n]])
-    assume(np.any(A != 0.0))
-    qddot = np.array(at[:n]) * acc
+    limits, n, acc, jerk, A, qddot = _row_state(a, at, robot_name)
     held = np.clip(qddot, -acc, acc)
     qdot = np.array(at[::-1][:n]) * limits.velocity_rad_s[:n]
     rate, accel, decel, ramp, ramp_all, reach = row_capacity(A, 0, qdot, qddot, acc, jerk, limits.velocity_rad_s[:n])
@@ -113,9 +124,7 @@ def test_row_capacity_of_a_joint_beyond_its_limit():
 
 
 @SETTINGS
-@given(a=st.lists(st.floats(-1.0, 1.0).map(lambda x: 0.0 if abs(x) < 0.1 else x), min_size=7, max_size=7),
-       at=st.lists(st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.7, 1.0, 2.5]) | st.floats(-3.0, 3.0), min_size=7,
-                   max_size=7),
+@given(a=row_weights, at=joint_accelerations,
        factor=st.sampled_from([1.0, 1.001, 1.5, 50.0]) | st.floats(1.0, 50.0),
        robot_name=st.sampled_from(sorted(ROBOTS)))
 def test_beyond_ramp_is_a_ramp_the_joints_can_give_at_the_scaled_limits(a, at, factor, robot_name):
@@ -125,13 +134,9 @@ def test_beyond_ramp_is_a_ramp_the_joints_can_give_at_the_scaled_limits(a, at, f
     acc_j`` at ``factor jerk_j`` from its acceleration now (one beyond even that stays there),
     checked at each joint's knee and the line's end; at ``factor`` 1 the line reaches the
     capacity only once every joint is at its limit."""
-    limits = robot(robot_name).limits
-    n = min(7, limits.acceleration_rad_s2.shape[0])
-    acc, jerk = limits.acceleration_rad_s2[:n], limits.jerk_rad_s3[:n]
-    A = np.array([a[:n]])
-    assume(np.any(A != 0.0))
-    qddot = np.array(at[:n]) * acc
-    slope, start = beyond_ramp(A, 0, qddot, acc, jerk)
+    limits, n, acc, jerk, A, qddot = _row_state(a, at, robot_name)
+    _, now_row, capacity, *_ = row_capacity(A, 0, np.zeros(n), qddot, acc, jerk, limits.velocity_rad_s[:n])
+    slope, start = beyond_ramp(A, 0, qddot, acc, jerk, capacity, now_row)
     now = float(A[0] @ qddot)
     top = factor * float(np.abs(A[0]) @ acc)
     rise = factor * slope - start

@@ -260,20 +260,18 @@ def viable_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap):  # pragma: no
 
 
 @numba.njit(cache=True, inline="always")
-def beyond_ramp(A, i, qddot, acc, jerk):  # pragma: no cover - compiled
+def beyond_ramp(A, i, qddot, acc, jerk, capacity, accel):  # pragma: no cover - compiled
     """Row ``i``'s jerk when its joints' limits are scaled by ``f >= 1`` (``safe_speed`` beyond the
     limits), as ``(slope, start)``: at least ``f slope - start``. Each joint then ramps toward
     ``f acc_j`` at ``f jerk_j`` and gets there within ``T = max_j max(2 acc_j, acc_j + |qddot_j|)
     / jerk_j`` whatever ``f``; the rate's acceleration, concave in time, stays above the chord from
-    ``a . qddot`` now to ``f sum_j |a_j| acc_j`` at ``T``: ``slope = sum_j |a_j| acc_j / T``,
-    ``start = a . qddot / T``. Unlike ``row_capacity``'s ramp scaled by ``f`` (the chord within
-    the limits), it does not vanish when the row already brakes at its capacity."""
-    capacity, accel, t_max = 0.0, 0.0, 0.0
+    ``accel = a . qddot`` now to ``f capacity`` (``capacity = sum_j |a_j| acc_j``; both as
+    ``row_capacity`` returns them) at ``T``: ``slope = capacity / T``, ``start = accel / T``.
+    Unlike ``row_capacity``'s ramp scaled by ``f`` (the chord within the limits), it does not
+    vanish when the row already brakes at its capacity."""
+    t_max = 0.0
     for j in range(A.shape[1]):
-        w = A[i, j]
-        if w != 0.0:
-            capacity += abs(w) * acc[j]
-            accel += w * qddot[j]
+        if A[i, j] != 0.0:
             t_max = max(t_max, max(2.0 * acc[j], acc[j] + abs(qddot[j])) / jerk[j])
     if t_max <= 0.0:
         return 0.0, 0.0
@@ -322,19 +320,14 @@ def safe_speed(gap, speed, accel, decel, jerk, dt_s, speed_cap, jerk_all=0.0, sl
         top = _jerk_at(hi, jerk, jerk_all, slope, start)
         if top == hi * jerk or hardest_braking_excess(gap, speed, accel, hi * decel, top, dt_s)[1] > 0.0:
             return braking_speed(gap, hi * decel, top, dt_s), hi
-        for _ in range(30):
-            mid = np.sqrt(lo * hi)
-            if hardest_braking_excess(gap, speed, accel, mid * decel, _jerk_at(mid, jerk, jerk_all, slope, start),
-                                      dt_s)[1] > 0.0:
-                lo = mid
-            else:
-                hi = mid
-        return viable_speed(gap, speed, accel, hi * decel, _jerk_at(hi, jerk, jerk_all, slope, start), dt_s,
-                            speed_cap), hi
+    else:
+        jerk_all, slope, start = 0.0, 0.0, 0.0  # (``_jerk_at`` is then ``factor * jerk``)
     for _ in range(30):
         mid = np.sqrt(lo * hi)
-        if hardest_braking_excess(gap, speed, accel, mid * decel, mid * jerk, dt_s)[1] > 0.0:
+        if hardest_braking_excess(gap, speed, accel, mid * decel, _jerk_at(mid, jerk, jerk_all, slope, start),
+                                  dt_s)[1] > 0.0:
             lo = mid
         else:
             hi = mid
-    return viable_speed(gap, speed, accel, hi * decel, hi * jerk, dt_s, speed_cap), hi
+    return viable_speed(gap, speed, accel, hi * decel, _jerk_at(hi, jerk, jerk_all, slope, start), dt_s,
+                        speed_cap), hi

@@ -70,7 +70,7 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0
         rate_now, rate_accel, decel, jerk_n, jerk_all, reach = row_capacity(A, i, qdot_prev, qddot_prev, acc, jerk,
                                                                              vel)
         own_speed, own_accel = -rate_now, -rate_accel
-        beyond_slope, beyond_start = beyond_ramp(A, i, qddot_prev, acc, jerk)
+        beyond_slope, beyond_start = beyond_ramp(A, i, qddot_prev, acc, jerk, decel, rate_accel)
         beyond_all = jerk_all
         if rate[i] < 0.0:
             # A person walking at the arm: ISO/TS 15066's bound multiplies their speed by the
