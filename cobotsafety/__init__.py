@@ -14,6 +14,10 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from cobotsafety import compile_cache
+
+compile_cache.configure()  # before any kernel is defined: a cache per version of the source
+
 from cobotsafety.errors import CobotSafetyError, InfeasibleConstraintsError, RecordingError
 from cobotsafety.projection import slide
 
