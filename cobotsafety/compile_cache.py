@@ -26,6 +26,7 @@ import shutil
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 PREFIX = "cobotsafety-"
@@ -55,17 +56,15 @@ def _writable(directory: Path) -> bool:
     return True
 
 
-def _base(package_dir: Path) -> Path:
-    """The directory the versions' directories live in."""
+def _bases(package_dir: Path) -> list[Path]:
+    """The directories the versions' directories may live in, in order of preference."""
     given = os.environ.get("NUMBA_CACHE_DIR", "").rstrip("/\\")
-    if given:
-        # A process started by one that configured already (a campaign worker): its parent.
-        return Path(given).parent if Path(given).name.startswith(PREFIX) else Path(given)
-    for candidate in (package_dir / "__pycache__" / "numba",
-                      Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cobotsafety" / "numba"):
-        if _writable(candidate):
-            return candidate
-    return Path(tempfile.gettempdir()) / f"cobotsafety-numba-{os.getuid() if hasattr(os, 'getuid') else 0}"
+    # (a process started by one that configured already, a campaign worker: the parent's base)
+    chosen = [Path(given).parent if Path(given).name.startswith(PREFIX) else Path(given)] if given else []
+    user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cobotsafety" / "numba"
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    return chosen + [package_dir / "__pycache__" / "numba", user,
+                     Path(tempfile.gettempdir()) / f"cobotsafety-numba-{uid}"]
 
 
 def _prune(base: Path, keep: Path) -> None:
@@ -85,12 +84,19 @@ def _prune(base: Path, keep: Path) -> None:
             pass
 
 
-def configure(package_dir: Path | None = None) -> Path:
-    """Point numba's cache at this source version's directory (created) and return it."""
+def configure(package_dir: Path | None = None) -> Path | None:
+    """Point numba's cache at this source version's directory (created) and return it; ``None``
+    (numba's own choice left, with a warning) when no candidate directory is writable."""
     package_dir = Path(__file__).resolve().parent if package_dir is None else package_dir
-    base = _base(package_dir)
-    directory = base / (PREFIX + source_key(package_dir))
-    directory.mkdir(parents=True, exist_ok=True)
+    key = PREFIX + source_key(package_dir)
+    for base in _bases(package_dir):
+        directory = base / key
+        if _writable(directory):
+            break
+    else:
+        warnings.warn(f"cobotsafety: no writable directory for numba's cache in {_bases(package_dir)}; "
+                      "a kernel whose callee changed may load its old code", stacklevel=2)
+        return None
     os.utime(directory)  # (most recently used: kept by the next prune)
     os.environ["NUMBA_CACHE_DIR"] = str(directory)
     if "numba" in sys.modules:  # imported before us: its configuration follows the environment

@@ -131,3 +131,12 @@ def test_older_versions_are_pruned_but_the_recent_ones(tmp_path, cache_env):
     kept = {current.name, "someone_else", f"{compile_cache.PREFIX}running"}
     kept |= {f"{compile_cache.PREFIX}old{i}" for i in range(compile_cache.KEEP_VERSIONS - 1)}
     assert left == kept
+
+
+def test_an_unusable_cache_directory_falls_back_to_the_packages_own(tmp_path, cache_env):
+    package = _package(tmp_path, "")
+    (tmp_path / "a_file").write_text("not a directory")
+    cache_env.setenv("NUMBA_CACHE_DIR", str(tmp_path / "a_file"))
+    directory = compile_cache.configure(package)
+    assert directory == package / "__pycache__" / "numba" / (compile_cache.PREFIX + compile_cache.source_key(package))
+    assert os.environ["NUMBA_CACHE_DIR"] == str(directory)
