@@ -32,8 +32,9 @@ from pathlib import Path
 PREFIX = "cobotsafety-"
 #: Older versions' cache directories kept beside the current one (switching branches back).
 KEEP_VERSIONS = 3
-#: An older version's directory used within this long is kept: a process may still compile into it.
-KEEP_RECENT_S = 600.0
+#: An older version's directory used within this long is kept: a process started on it (a demo, a
+#: campaign of an hour) may still compile into it, and numba fails when its directory is gone.
+KEEP_RECENT_S = 6 * 3600.0
 
 
 def source_key(package_dir: Path) -> str:

@@ -114,23 +114,31 @@ def test_the_key_changes_with_any_module_and_a_started_process_keeps_its_parents
     assert compile_cache.configure(package) == first  # a worker inherits the variable: not nested
 
 
-def test_older_versions_are_pruned_but_the_recent_ones(tmp_path, cache_env):
-    package = _package(tmp_path, "")
-    base = tmp_path / "cache"
+def _versions(base: Path, ages_s: dict[str, float]) -> None:
     now = time.time()
-    for i in range(6):  # versions last used 1-6 hours ago, then one a minute ago
-        (base / f"{compile_cache.PREFIX}old{i}").mkdir(parents=True)
-        os.utime(base / f"{compile_cache.PREFIX}old{i}", (now - 3600 * (i + 1),) * 2)
-    (base / f"{compile_cache.PREFIX}running").mkdir()
-    os.utime(base / f"{compile_cache.PREFIX}running", (now - 60,) * 2)
-    (base / "someone_else").mkdir()
-    os.utime(base / "someone_else", (now - 86400,) * 2)
-    cache_env.setenv("NUMBA_CACHE_DIR", str(base))
+    for name, age in ages_s.items():
+        (base / name).mkdir(parents=True)
+        os.utime(base / name, (now - age,) * 2)
+
+
+def test_older_versions_are_pruned_but_the_most_recent_and_those_still_in_use(tmp_path, cache_env):
+    package = _package(tmp_path, "")
+    window, prefix = compile_cache.KEEP_RECENT_S, compile_cache.PREFIX
+    # Six versions last used days ago (and a directory not ours): the three most recent stay.
+    old = tmp_path / "old"
+    _versions(old, {f"{prefix}{i}": 86400.0 * (i + 1) for i in range(6)} | {"someone_else": 86400.0 * 9})
+    cache_env.setenv("NUMBA_CACHE_DIR", str(old))
     current = compile_cache.configure(package)
-    left = {d.name for d in base.iterdir()}
-    kept = {current.name, "someone_else", f"{compile_cache.PREFIX}running"}
-    kept |= {f"{compile_cache.PREFIX}old{i}" for i in range(compile_cache.KEEP_VERSIONS - 1)}
-    assert left == kept
+    assert {d.name for d in old.iterdir()} == {current.name, "someone_else"} | {
+        f"{prefix}{i}" for i in range(compile_cache.KEEP_VERSIONS)}
+    # Five versions used within the window (processes may still run on them) and two older: the
+    # five stay, beyond the three most recent.
+    recent = tmp_path / "recent"
+    _versions(recent, {f"{prefix}r{i}": window * (i + 1) / 6 for i in range(5)}
+              | {f"{prefix}d{i}": window + 86400.0 * (i + 1) for i in range(2)})
+    cache_env.setenv("NUMBA_CACHE_DIR", str(recent))
+    current = compile_cache.configure(package)
+    assert {d.name for d in recent.iterdir()} == {current.name} | {f"{prefix}r{i}" for i in range(5)}
 
 
 def test_an_unusable_cache_directory_falls_back_to_the_packages_own(tmp_path, cache_env):
