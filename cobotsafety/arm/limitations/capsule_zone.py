@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.limitations.point_row import write_point_row
+from cobotsafety.arm.limitations.point_row import direction_from, write_point_row
 from cobotsafety.geometry.capsule import capsule_pair
 
 KIND = 3
@@ -89,12 +89,7 @@ def _same_point(a, b):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def _write(out, m, value, pa, pb, c, con, b, kin, scratch, u):  # pragma: no cover - compiled
     """Row ``m`` at ``pa`` for the distance ``value`` from the zone's point ``pb``."""
-    gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
-    norm = np.sqrt(gx * gx + gy * gy + gz * gz)
-    if norm > 1e-12:
-        u[0], u[1], u[2] = gx / norm, gy / norm, gz / norm
-    else:
-        u[0], u[1], u[2] = 0.0, 0.0, 1.0
+    direction_from(pb, pa, 1e-12, u)
     return write_point_row(out, m, value, u, pa, c, 0.0, con, b, kin, scratch)
 
 

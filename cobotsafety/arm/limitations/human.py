@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from cobotsafety.arm.limitations.point_row import write_point_row
+from cobotsafety.arm.limitations.point_row import direction_from, write_point_row
 from cobotsafety.geometry.capsule import all_pairs, capsule_pair
 
 KIND = 6
@@ -117,12 +117,7 @@ def rows(real, skip, con, kin, human, activation_m, out, m, before):  # pragma: 
                 continue
             for r in range(3):
                 pa[r], pb[r] = pas[i, h, r], pbs[i, h, r]
-            gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
-            norm = np.sqrt(gx * gx + gy * gy + gz * gz)
-            if norm > 1e-9:
-                u[0], u[1], u[2] = gx / norm, gy / norm, gz / norm
-            else:
-                u[0], u[1], u[2] = 0.0, 0.0, 1.0
+            direction_from(pb, pa, 1e-9, u)
             sx, sy, sz = hp1[h, 0] - hp0[h, 0], hp1[h, 1] - hp0[h, 1], hp1[h, 2] - hp0[h, 2]
             length2 = sx * sx + sy * sy + sz * sz
             t = 0.0

@@ -10,8 +10,22 @@ Both from one ``frame_jacobian`` at ``p``.
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 from cobotsafety.arm.kinematics import drift_along, frame_jacobian
+
+
+@numba.njit(cache=True, inline="always")
+def direction_from(pb, pa, tiny, u):  # pragma: no cover - compiled
+    """``u`` (3,) written: the unit vector from ``pb`` to ``pa`` (the direction in which moving
+    ``pa`` away from ``pb`` increases their distance), or ``+z`` when they are within ``tiny``
+    [m] of each other (no direction)."""
+    gx, gy, gz = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
+    norm = np.sqrt(gx * gx + gy * gy + gz * gz)
+    if norm > tiny:
+        u[0], u[1], u[2] = gx / norm, gy / norm, gz / norm
+    else:
+        u[0], u[1], u[2] = 0.0, 0.0, 1.0
 
 
 @numba.njit(cache=True, inline="always")
