@@ -17,6 +17,13 @@ from cobotsafety.arm.ssm import approach_speed_kernel
 #: The least share of a row's deceleration a brake keeps when the limitation's curvature pulls
 #: the arm toward it (beyond it, the sliding is faster than the limits can hold on that curve).
 PULL_FLOOR = 0.25
+#: An approach slower than this [m/s or rad/s] is at rest: the plan's whole-arm stop (its
+#: deceleration scaled by the approach's speed) is not applied to it. Below ~1e-103 the braking
+#: model's ``decel^3 / jerk^2`` underflows to 0 / 0, and the compiled step raised
+#: ZeroDivisionError on an iiwa joint approaching its limit at 5e-312 rad/s while another moved
+#: (``tests/test_limitation_bounds_rest.py``); 1e-100 is far below any speed the arm resolves
+#: (its rounding, ``ROUNDING_RAD_S``, is 1e-12) and far above that underflow.
+AT_REST = 1e-100
 
 
 @numba.njit(cache=True)
@@ -98,7 +105,7 @@ def limitation_bounds(dist, A, rate, angular, separation, pull, drift, count, q0
         if decel <= 0.0 or jerk_n <= 0.0:
             continue  # a row the joints cannot move: no half-space on the command
         plan_jerk = jerk_n
-        if rate[i] == 0.0 and own_speed > 0.0:
+        if rate[i] == 0.0 and own_speed > AT_REST:
             plan_decel = min(plan_decel, own_speed * stop_decel)
             plan_jerk = min(plan_jerk, own_speed * stop_jerk)
         plan_decel *= brake_share
